@@ -1,0 +1,141 @@
+//! Type aliases for the algebra, so nalgebra's generic types do not leak through every
+//! signature, and the translation-rotation-scale transform used by every joint.
+
+/// The scalar used throughout rigfit.
+pub type Real = f64;
+/// A point in 3D.
+pub type Point3 = nalgebra::Point3<Real>;
+/// A vector in 3D.
+pub type Vector3 = nalgebra::Vector3<Real>;
+/// A unit quaternion (a rotation).
+pub type Quat = nalgebra::UnitQuaternion<Real>;
+/// A 3x3 matrix.
+pub type Matrix3 = nalgebra::Matrix3<Real>;
+/// A 4x4 homogeneous matrix (affine transforms, possibly with scale).
+pub type Matrix4 = nalgebra::Matrix4<Real>;
+
+/// A transform made of a translation, a rotation and a per-axis scale, applied as
+/// `T * R * S` (the glTF node convention).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Trs {
+    pub translation: Vector3,
+    pub rotation: Quat,
+    pub scale: Vector3,
+}
+
+impl Default for Trs {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
+impl Trs {
+    /// The identity transform.
+    pub const IDENTITY: Trs = Trs {
+        translation: Vector3::new(0.0, 0.0, 0.0),
+        rotation: Quat::new_unchecked(nalgebra::Quaternion::new(1.0, 0.0, 0.0, 0.0)),
+        scale: Vector3::new(1.0, 1.0, 1.0),
+    };
+
+    /// A pure translation.
+    pub fn from_translation(translation: Vector3) -> Self {
+        Self {
+            translation,
+            ..Self::IDENTITY
+        }
+    }
+
+    /// A translation followed by a rotation (unit scale).
+    pub fn new(translation: Vector3, rotation: Quat) -> Self {
+        Self {
+            translation,
+            rotation,
+            scale: Vector3::new(1.0, 1.0, 1.0),
+        }
+    }
+
+    /// The homogeneous matrix `T * R * S`.
+    pub fn to_matrix(&self) -> Matrix4 {
+        let rs =
+            self.rotation.to_rotation_matrix().into_inner() * Matrix3::from_diagonal(&self.scale);
+        let mut m = Matrix4::identity();
+        m.fixed_view_mut::<3, 3>(0, 0).copy_from(&rs);
+        m.fixed_view_mut::<3, 1>(0, 3).copy_from(&self.translation);
+        m
+    }
+
+    /// Decomposes an affine matrix into translation, rotation and scale. Shear, which TRS
+    /// cannot hold, is dropped; a negative determinant is carried by a negative x scale.
+    pub fn from_matrix(m: &Matrix4) -> Self {
+        let translation = Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]);
+        let linear: Matrix3 = m.fixed_view::<3, 3>(0, 0).into_owned();
+        let mut scale = Vector3::new(
+            linear.column(0).norm(),
+            linear.column(1).norm(),
+            linear.column(2).norm(),
+        );
+        if linear.determinant() < 0.0 {
+            scale.x = -scale.x;
+        }
+        let mut rot = linear;
+        for c in 0..3 {
+            if scale[c].abs() > 0.0 {
+                let col = rot.column(c) / scale[c];
+                rot.set_column(c, &col);
+            }
+        }
+        let rotation = Quat::from_matrix(&rot);
+        Self {
+            translation,
+            rotation,
+            scale,
+        }
+    }
+}
+
+/// Transforms a point by a homogeneous matrix (affine part only).
+#[inline]
+pub fn transform_point(m: &Matrix4, p: &Point3) -> Point3 {
+    Point3::new(
+        m[(0, 0)] * p.x + m[(0, 1)] * p.y + m[(0, 2)] * p.z + m[(0, 3)],
+        m[(1, 0)] * p.x + m[(1, 1)] * p.y + m[(1, 2)] * p.z + m[(1, 3)],
+        m[(2, 0)] * p.x + m[(2, 1)] * p.y + m[(2, 2)] * p.z + m[(2, 3)],
+    )
+}
+
+/// The linear (3x3) part of a homogeneous matrix.
+#[inline]
+pub fn linear_part(m: &Matrix4) -> Matrix3 {
+    m.fixed_view::<3, 3>(0, 0).into_owned()
+}
+
+/// The translation part of a homogeneous matrix.
+#[inline]
+pub fn translation_part(m: &Matrix4) -> Vector3 {
+    Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)])
+}
+
+/// The rotation `exp([w]x)` of a rotation vector `w` (axis times angle).
+#[inline]
+pub fn exp_rotation(w: &Vector3) -> Quat {
+    Quat::from_scaled_axis(*w)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn trs_matrix_round_trip() {
+        let trs = Trs {
+            translation: Vector3::new(1.0, -2.0, 3.0),
+            rotation: Quat::from_euler_angles(0.3, -0.7, 1.1),
+            scale: Vector3::new(2.0, 0.5, 1.5),
+        };
+        let back = Trs::from_matrix(&trs.to_matrix());
+        assert_relative_eq!(back.translation, trs.translation, epsilon = 1e-12);
+        assert_relative_eq!(back.scale, trs.scale, epsilon = 1e-12);
+        assert!(back.rotation.angle_to(&trs.rotation) < 1e-9);
+    }
+}
