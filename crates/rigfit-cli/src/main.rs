@@ -1,1 +1,50 @@
-fn main() {}
+//! `rigfit`: the command line. A thin shell: it parses arguments, calls the readers, the
+//! solvers and the writers, and turns every error into one line on stderr and exit status 2.
+
+mod commands;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Fits skeletons and deformable surfaces to 3D data: strokes, point clouds, scans.
+#[derive(Debug, Parser)]
+#[command(name = "rigfit", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Show what a rig, mesh, point cloud or strokes file holds.
+    Info(commands::info::InfoArgs),
+    /// Write the built-in procedural humanoid as a .glb (or .bvh).
+    DemoRig(commands::demo_rig::DemoRigArgs),
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .without_time()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_env("RIGFIT_LOG")
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+        )
+        .init();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Info(args) => commands::info::run(&args),
+        Command::DemoRig(args) => commands::demo_rig::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // One line: the file, the place and the problem.
+            let line = format!("{e:#}").replace('\n', " ");
+            eprintln!("rigfit: error: {line}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -4,9 +4,12 @@
 //! `write_*` functions add file access and name the file in a [`FormatError`]. Writers write
 //! to a temporary file and rename it, so no output is ever left half-written.
 
+pub mod bvh;
 pub mod error;
+pub mod gltf;
 pub mod obj;
 pub mod ply;
+// pub mod rig_file;
 pub mod strokes;
 
 pub use error::{FormatError, ParseError};

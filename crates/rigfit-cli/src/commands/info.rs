@@ -1,0 +1,153 @@
+//! `rigfit info FILE`: what a file holds.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::bail;
+use rigfit_core::{Aabb, JointDof, JointKind, Rig};
+use rigfit_formats::error::extension;
+use rigfit_formats::rig_file::{RigOptions, RigSource, read_rig};
+
+#[derive(Debug, clap::Args)]
+pub struct InfoArgs {
+    /// A rig (.glb, .gltf, .bvh), a mesh or point cloud (.ply, .obj) or a strokes file (.json).
+    file: PathBuf,
+    /// The glTF skin to describe (by name); the first by default.
+    #[arg(long)]
+    skin: Option<String>,
+}
+
+pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
+    let text = describe(&args.file, args.skin.as_deref())?;
+    print!("{text}");
+    Ok(())
+}
+
+/// The description printed by `rigfit info`.
+pub fn describe(path: &Path, skin: Option<&str>) -> anyhow::Result<String> {
+    let mut out = String::new();
+    match extension(path).as_str() {
+        "glb" | "gltf" => {
+            let doc = rigfit_formats::gltf::read_gltf(path, skin)?;
+            writeln!(out, "{}: glTF 2.0 ({})", path.display(), if extension(path) == "glb" { "binary" } else { "JSON" })?;
+            let skins = doc.json.get("skins").and_then(|s| s.as_array()).map_or(0, Vec::len);
+            writeln!(out, "skins: {skins}")?;
+            if let Some(rig) = &doc.rig {
+                describe_rig(&mut out, rig)?;
+            }
+            let meshes = doc.mesh_summaries();
+            writeln!(out, "meshes: {}", meshes.len())?;
+            for m in meshes {
+                let skinned = if m.skinned { ", skinned" } else { "" };
+                writeln!(out, "  {}: {} vertices, {} triangles{skinned}", m.name, m.vertices, m.triangles)?;
+            }
+            if let Some(rig) = &doc.rig {
+                describe_extent(&mut out, rig)?;
+            }
+        }
+        "bvh" => {
+            let file = read_rig(path, &RigOptions::default())?;
+            let RigSource::Bvh(doc) = &file.source else { unreachable!("a .bvh path gives a BVH source") };
+            writeln!(out, "{}: BVH motion capture", path.display())?;
+            describe_rig(&mut out, &file.rig)?;
+            writeln!(out, "frames: {} at {} s ({:.1} fps)", doc.frames.len(), doc.frame_time, 1.0 / doc.frame_time)?;
+            describe_extent(&mut out, &file.rig)?;
+        }
+        "ply" | "obj" => {
+            let mesh = if extension(path) == "ply" {
+                rigfit_formats::ply::read_ply(path)?
+            } else {
+                rigfit_formats::obj::read_obj(path)?
+            };
+            let kind = if mesh.is_point_cloud() { "point cloud" } else { "mesh" };
+            writeln!(out, "{}: {kind}", path.display())?;
+            writeln!(out, "points: {}", mesh.vertices.len())?;
+            writeln!(out, "triangles: {}", mesh.triangles.len())?;
+            writeln!(out, "normals: {}", if mesh.normals.is_some() { "yes" } else { "no" })?;
+            write_bounds(&mut out, mesh.bounds())?;
+        }
+        "json" => {
+            let strokes = rigfit_formats::strokes::read_strokes(path)?;
+            writeln!(out, "{}: strokes", path.display())?;
+            writeln!(out, "strokes: {}", strokes.len())?;
+            for (i, s) in strokes.iter().enumerate() {
+                let pinned = s.bones.as_ref().map(|b| format!(", pinned to {}", b.join(", "))).unwrap_or_default();
+                writeln!(out, "  {i}: {} points, length {:.4}{pinned}", s.points.len(), s.length())?;
+            }
+            write_bounds(&mut out, Aabb::from_points(strokes.iter().flat_map(|s| &s.points)))?;
+        }
+        _ => bail!(
+            "{}: unsupported file type (expected .glb, .gltf, .bvh, .ply, .obj or a strokes .json)",
+            path.display()
+        ),
+    }
+    Ok(out)
+}
+
+fn describe_rig(out: &mut String, rig: &Rig) -> anyhow::Result<()> {
+    let s = &rig.skeleton;
+    let count = |k: JointKind| s.joints().iter().filter(|j| j.kind == k).count();
+    writeln!(
+        out,
+        "joints: {} ({} skin joints, {} end sites, {} helper nodes)",
+        s.len(),
+        count(JointKind::Skin),
+        count(JointKind::EndSite),
+        count(JointKind::Helper)
+    )?;
+    fn walk(out: &mut String, rig: &Rig, j: usize, depth: usize) -> std::fmt::Result {
+        let joint = rig.skeleton.joint(j);
+        let kind = match joint.kind {
+            JointKind::Skin => "",
+            JointKind::Helper => " (helper)",
+            JointKind::EndSite => " (end site)",
+        };
+        let dof = match joint.dof {
+            JointDof::Free => " [free]",
+            JointDof::Ball => "",
+            JointDof::Hinge { .. } => " [hinge]",
+            JointDof::Fixed => " [fixed]",
+        };
+        writeln!(out, "  {}{}{kind}{dof}", "  ".repeat(depth), joint.name)?;
+        for &c in rig.skeleton.children(j) {
+            walk(out, rig, c, depth + 1)?;
+        }
+        Ok(())
+    }
+    for r in s.roots() {
+        walk(out, rig, r, 0)?;
+    }
+    writeln!(out, "animations: {}", rig.animations.len())?;
+    for a in &rig.animations {
+        writeln!(
+            out,
+            "  {}: {:.3} s, {} frames, {} channels",
+            a.name,
+            a.duration(),
+            a.frame_count(),
+            a.channels.len()
+        )?;
+    }
+    Ok(())
+}
+
+fn describe_extent(out: &mut String, rig: &Rig) -> anyhow::Result<()> {
+    write_bounds(out, rig.bounds(&rig.pose))?;
+    writeln!(out, "height: {:.4}", rig.height())?;
+    Ok(())
+}
+
+fn write_bounds(out: &mut String, b: Option<Aabb>) -> anyhow::Result<()> {
+    match b {
+        Some(b) => {
+            writeln!(
+                out,
+                "bounding box: min [{:.4}, {:.4}, {:.4}] max [{:.4}, {:.4}, {:.4}]",
+                b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
+            )?;
+            writeln!(out, "diagonal: {:.4}", b.diagonal())?;
+        }
+        None => writeln!(out, "bounding box: empty")?,
+    }
+    Ok(())
+}

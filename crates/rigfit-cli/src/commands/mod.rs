@@ -1,0 +1,4 @@
+//! One module per subcommand.
+
+pub mod demo_rig;
+pub mod info;
