@@ -6,16 +6,24 @@ use std::process::{Command, Output};
 
 /// Path of a real test asset (RIGFIT_DATA, or ../shared/data beside the repository).
 pub fn data(rel: &str) -> PathBuf {
-    let root = std::env::var("RIGFIT_DATA")
-        .unwrap_or_else(|_| concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string());
+    let root = std::env::var("RIGFIT_DATA").unwrap_or_else(|_| {
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string()
+    });
     let p = PathBuf::from(root).join(rel);
-    assert!(p.exists(), "test asset {} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh", p.display());
+    assert!(
+        p.exists(),
+        "test asset {} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh",
+        p.display()
+    );
     p
 }
 
 /// The malformed-input corpus.
 pub fn malformed_dir() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../rigfit-formats/tests/malformed"))
+    PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../rigfit-formats/tests/malformed"
+    ))
 }
 
 /// Runs `rigfit` with arguments.
@@ -37,10 +45,18 @@ pub fn stderr(o: &Output) -> String {
 /// Asserts a bad-input failure: exit status 2, one line on stderr naming `file`.
 pub fn assert_bad_input(o: &Output, file: &Path) {
     let err = stderr(o);
-    assert_eq!(o.status.code(), Some(2), "exit status for {}: stderr {err}", file.display());
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "exit status for {}: stderr {err}",
+        file.display()
+    );
     let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
     assert_eq!(lines.len(), 1, "one line for {}: {err}", file.display());
     let name = file.file_name().expect("file name").to_string_lossy();
-    assert!(lines[0].contains(name.as_ref()), "the line names {name}: {err}");
+    assert!(
+        lines[0].contains(name.as_ref()),
+        "the line names {name}: {err}"
+    );
     assert!(!err.contains("panicked"), "no panic: {err}");
 }

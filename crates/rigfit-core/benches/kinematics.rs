@@ -8,14 +8,22 @@ use rigfit_core::{DofLayout, ForwardKinematics, Joint, Point3, Quat, Skeleton, T
 fn rig55() -> Skeleton {
     let mut joints = vec![Joint::new("root", None, Trs::IDENTITY)];
     for i in 1..5 {
-        joints.push(Joint::new(format!("spine{i}"), Some(i - 1), Trs::from_translation(Vector3::new(0.0, 0.1, 0.0))));
+        joints.push(Joint::new(
+            format!("spine{i}"),
+            Some(i - 1),
+            Trs::from_translation(Vector3::new(0.0, 0.1, 0.0)),
+        ));
     }
     for limb in 0..5 {
         let mut parent = 4 - (limb % 3);
         for k in 0..10 {
             let offset = Vector3::new(0.05 * (limb as f64 - 2.0), -0.08, 0.01 * k as f64);
             let rotation = Quat::from_euler_angles(0.1 * k as f64, 0.05 * limb as f64, 0.02);
-            joints.push(Joint::new(format!("limb{limb}_{k}"), Some(parent), Trs::new(offset, rotation)));
+            joints.push(Joint::new(
+                format!("limb{limb}_{k}"),
+                Some(parent),
+                Trs::new(offset, rotation),
+            ));
             parent = joints.len() - 1;
         }
     }
@@ -29,9 +37,13 @@ fn bench(c: &mut Criterion) {
     assert_eq!(skeleton.len(), 55);
     let layout = DofLayout::new(&skeleton);
     let pose = skeleton.rest_pose();
-    c.bench_function("fk_55_joints", |b| b.iter(|| ForwardKinematics::new(black_box(&skeleton), black_box(&pose))));
+    c.bench_function("fk_55_joints", |b| {
+        b.iter(|| ForwardKinematics::new(black_box(&skeleton), black_box(&pose)))
+    });
     let fk = ForwardKinematics::new(&skeleton, &pose);
-    let points: Vec<(usize, Point3)> = (0..skeleton.len()).map(|j| (j, fk.point(j, &Point3::new(0.01, 0.02, 0.0)))).collect();
+    let points: Vec<(usize, Point3)> = (0..skeleton.len())
+        .map(|j| (j, fk.point(j, &Point3::new(0.01, 0.02, 0.0))))
+        .collect();
     c.bench_function("fk_plus_jacobian_55_joints_one_point_each", |b| {
         b.iter(|| {
             let fk = ForwardKinematics::new(black_box(&skeleton), black_box(&pose));

@@ -5,10 +5,12 @@
 //! [`strokes::Stroke`]) -> solver -> result -> file.
 
 pub mod animation;
+pub mod engine;
 pub mod geometry;
 pub mod humanoid;
 pub mod kinematics;
 pub mod math;
+pub mod pose;
 pub mod rig;
 pub mod skeleton;
 pub mod skinning;

@@ -9,7 +9,7 @@ pub mod error;
 pub mod gltf;
 pub mod obj;
 pub mod ply;
-// pub mod rig_file;
+pub mod rig_file;
 pub mod strokes;
 
 pub use error::{FormatError, ParseError};

@@ -70,7 +70,10 @@ pub fn read_rig(path: &Path, options: &RigOptions) -> Result<RigFile, FormatErro
                             path,
                             ParseError::new(
                                 "MOTION",
-                                format!("start frame {k} does not exist ({} frames)", doc.frames.len()),
+                                format!(
+                                    "start frame {k} does not exist ({} frames)",
+                                    doc.frames.len()
+                                ),
                             ),
                         ));
                     }
@@ -116,8 +119,12 @@ impl RigFile {
                 } else {
                     keys.iter().map(|(_, p)| p.clone()).collect()
                 };
-                BvhDocument::from_skeleton(&self.rig.skeleton, &poses, 1.0 / crate::gltf::FRAMES_PER_SECOND)
-                    .write(out)
+                BvhDocument::from_skeleton(
+                    &self.rig.skeleton,
+                    &poses,
+                    1.0 / crate::gltf::FRAMES_PER_SECOND,
+                )
+                .write(out)
             }
             ("glb", RigSource::Bvh(_)) => {
                 let mut rig = self.rig.clone();

@@ -6,10 +6,15 @@ use rigfit_core::{DofLayout, ForwardKinematics, Point3, Quat, Rig, Vector3};
 use rigfit_formats::gltf::{GltfDocument, parse_gltf, read_gltf, rig_to_glb};
 
 fn data(rel: &str) -> PathBuf {
-    let root = std::env::var("RIGFIT_DATA")
-        .unwrap_or_else(|_| concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string());
+    let root = std::env::var("RIGFIT_DATA").unwrap_or_else(|_| {
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string()
+    });
     let p = PathBuf::from(root).join(rel);
-    assert!(p.exists(), "test asset {} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh", p.display());
+    assert!(
+        p.exists(),
+        "test asset {} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh",
+        p.display()
+    );
     p
 }
 
@@ -46,7 +51,12 @@ fn every_real_rig_loads() {
     ] {
         let doc = read_gltf(&data(file), None).unwrap_or_else(|e| panic!("{file}: {e}"));
         let rig = rig(&doc);
-        let skin = rig.skeleton.joints().iter().filter(|j| j.kind == rigfit_core::JointKind::Skin).count();
+        let skin = rig
+            .skeleton
+            .joints()
+            .iter()
+            .filter(|j| j.kind == rigfit_core::JointKind::Skin)
+            .count();
         assert_eq!(skin, joints, "{file}: skin joints");
         let v: usize = rig.meshes.iter().map(|m| m.positions.len()).sum();
         assert_eq!(v, vertices, "{file}: vertices");
@@ -82,7 +92,11 @@ fn read_write_read_keeps_joint_positions_at_three_times() {
                 let p0 = positions_at(original, a, t);
                 let p1 = positions_at(again, a, t);
                 for (j, (x, y)) in p0.iter().zip(&p1).enumerate() {
-                    assert!((x - y).norm() < 1e-6, "{file} glb={glb} anim {a:?} t={t}: joint {j} moved by {}", (x - y).norm());
+                    assert!(
+                        (x - y).norm() < 1e-6,
+                        "{file} glb={glb} anim {a:?} t={t}: joint {j} moved by {}",
+                        (x - y).norm()
+                    );
                 }
             }
             // The meshes survive too.
@@ -97,7 +111,11 @@ fn read_write_read_keeps_joint_positions_at_three_times() {
 
 #[test]
 fn skinning_at_the_bind_pose_reproduces_the_mesh() {
-    for file in ["assimp/BCN_Epileptic.glb", "assimp/Testwuson.glb", "webxr_hand/left.glb"] {
+    for file in [
+        "assimp/BCN_Epileptic.glb",
+        "assimp/Testwuson.glb",
+        "webxr_hand/left.glb",
+    ] {
         let doc = read_gltf(&data(file), None).expect("loads");
         let rig = rig(&doc);
         // The bind pose: every skin joint's world matrix is the inverse of its inverse bind
@@ -108,7 +126,9 @@ fn skinning_at_the_bind_pose_reproduces_the_mesh() {
                 .iter()
                 .enumerate()
                 .map(|(j, w)| match rig.skeleton.joint(j).kind {
-                    rigfit_core::JointKind::Skin => mesh.inverse_bind[j].try_inverse().expect("invertible"),
+                    rigfit_core::JointKind::Skin => {
+                        mesh.inverse_bind[j].try_inverse().expect("invertible")
+                    }
                     _ => *w,
                 })
                 .collect();
@@ -120,7 +140,10 @@ fn skinning_at_the_bind_pose_reproduces_the_mesh() {
             if let (Some(n0), Some(n1)) = (&mesh.normals, &normals) {
                 for (a, b) in n0.iter().zip(n1) {
                     if a.norm() > 0.5 {
-                        assert!((a.normalize() - b).norm() < 1e-4, "{file}: normal {a} vs {b}");
+                        assert!(
+                            (a.normalize() - b).norm() < 1e-4,
+                            "{file}: normal {a} vs {b}"
+                        );
                     }
                 }
             }
@@ -128,7 +151,10 @@ fn skinning_at_the_bind_pose_reproduces_the_mesh() {
             let bind_pose = rig.skeleton.pose_from_world(&world);
             let (again, _) = mesh.skin(&rig.skeleton.world_matrices(&bind_pose));
             for (a, b) in again.iter().zip(&mesh.positions) {
-                assert!((a - b).norm() < 1e-6 * diag, "{file}: rebuilt bind pose {a} vs {b}");
+                assert!(
+                    (a - b).norm() < 1e-6 * diag,
+                    "{file}: rebuilt bind pose {a} vs {b}"
+                );
             }
         }
     }
@@ -156,7 +182,10 @@ fn jacobians_of_every_real_rig_match_finite_differences() {
         let rig = rig(&doc);
         let s = &rig.skeleton;
         let layout = DofLayout::new(s);
-        let mut pose = rig.animations.first().map_or_else(|| rig.pose.clone(), |a| a.sample(&rig.pose, 0.5 * a.end()));
+        let mut pose = rig
+            .animations
+            .first()
+            .map_or_else(|| rig.pose.clone(), |a| a.sample(&rig.pose, 0.5 * a.end()));
         // Bend every joint a little so no Jacobian is evaluated at a special configuration.
         for (j, local) in pose.local.iter_mut().enumerate() {
             local.rotation *= Quat::from_euler_angles(0.05 * (j % 3) as f64, 0.04, -0.03);
@@ -181,7 +210,10 @@ fn jacobians_of_every_real_rig_match_finite_differences() {
                     - ForwardKinematics::new(s, &minus).point(j, &local))
                     / (2.0 * h);
                 let err = (numeric - analytic[c]).norm();
-                assert!(err < 1e-5 * (1.0 + numeric.norm()) * scale.max(1.0), "{file}: joint {j} column {c}: {err}");
+                assert!(
+                    err < 1e-5 * (1.0 + numeric.norm()) * scale.max(1.0),
+                    "{file}: joint {j} column {c}: {err}"
+                );
             }
         }
     }
@@ -193,7 +225,12 @@ fn a_new_pose_is_written_as_node_rotations_and_animation_keys() {
     let doc = read_gltf(&path, None).expect("loads");
     let original = rig(&doc);
     let mut pose = original.pose.clone();
-    let arm = original.skeleton.joints().iter().position(|j| j.name.contains("Arm")).expect("an arm joint");
+    let arm = original
+        .skeleton
+        .joints()
+        .iter()
+        .position(|j| j.name.contains("Arm"))
+        .expect("an arm joint");
     pose.local[arm].rotation *= Quat::from_euler_angles(0.3, 0.2, -0.4);
     let mut pose2 = pose.clone();
     pose2.local[arm].rotation *= Quat::from_euler_angles(0.0, 0.5, 0.0);
@@ -201,8 +238,17 @@ fn a_new_pose_is_written_as_node_rotations_and_animation_keys() {
     let bytes = doc.to_bytes(true, &pose, &keys, None);
     let back = reparse(&bytes);
     let r = rig(&back);
-    assert!(r.pose.local[arm].rotation.angle_to(&pose.local[arm].rotation) < 1e-9);
-    let anim = r.animations.iter().find(|a| a.name == "rigfit").expect("rigfit animation");
+    assert!(
+        r.pose.local[arm]
+            .rotation
+            .angle_to(&pose.local[arm].rotation)
+            < 1e-9
+    );
+    let anim = r
+        .animations
+        .iter()
+        .find(|a| a.name == "rigfit")
+        .expect("rigfit animation");
     for (t, p) in &keys {
         let sampled = anim.sample(&r.pose, *t);
         let a = r.skeleton.joint_positions(&sampled);
@@ -218,7 +264,10 @@ fn a_new_pose_is_written_as_node_rotations_and_animation_keys() {
     assert_eq!(keys_back.len(), 2);
     let again = back.to_bytes(true, &pose, &keys_back, None);
     assert_eq!(again.len(), bytes.len());
-    assert_eq!(rig_of(&again).animations.len(), original.animations.len() + 1);
+    assert_eq!(
+        rig_of(&again).animations.len(),
+        original.animations.len() + 1
+    );
 }
 
 fn rig_of(bytes: &[u8]) -> Rig {
@@ -237,8 +286,12 @@ fn the_built_in_humanoid_survives_glb() {
         assert!((x - y).norm() < 1e-6);
     }
     let t = 0.8;
-    let pa = rig.skeleton.joint_positions(&rig.animations[0].sample(&rig.pose, t));
-    let pb = back.skeleton.joint_positions(&back.animations[0].sample(&back.pose, t));
+    let pa = rig
+        .skeleton
+        .joint_positions(&rig.animations[0].sample(&rig.pose, t));
+    let pb = back
+        .skeleton
+        .joint_positions(&back.animations[0].sample(&back.pose, t));
     for (x, y) in pa.iter().zip(&pb) {
         assert!((x - y).norm() < 1e-5);
     }
@@ -259,7 +312,9 @@ fn truncated_and_corrupted_glb_never_panic() {
     for _ in 0..300 {
         let mut b = bytes.clone();
         for _ in 0..4 {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             let i = (state >> 33) as usize % b.len();
             b[i] = (state >> 17) as u8;
         }

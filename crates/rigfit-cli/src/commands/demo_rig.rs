@@ -23,7 +23,10 @@ pub fn run(args: &DemoRigArgs) -> anyhow::Result<()> {
                 .collect();
             BvhDocument::from_skeleton(&rig.skeleton, &poses, 1.0 / 24.0).write(&args.output)?;
         }
-        _ => bail!("{}: unsupported output type (expected .glb or .bvh)", args.output.display()),
+        _ => bail!(
+            "{}: unsupported output type (expected .glb or .bvh)",
+            args.output.display()
+        ),
     }
     println!(
         "wrote {} ({} joints, {} vertices)",

@@ -29,8 +29,21 @@ pub fn describe(path: &Path, skin: Option<&str>) -> anyhow::Result<String> {
     match extension(path).as_str() {
         "glb" | "gltf" => {
             let doc = rigfit_formats::gltf::read_gltf(path, skin)?;
-            writeln!(out, "{}: glTF 2.0 ({})", path.display(), if extension(path) == "glb" { "binary" } else { "JSON" })?;
-            let skins = doc.json.get("skins").and_then(|s| s.as_array()).map_or(0, Vec::len);
+            writeln!(
+                out,
+                "{}: glTF 2.0 ({})",
+                path.display(),
+                if extension(path) == "glb" {
+                    "binary"
+                } else {
+                    "JSON"
+                }
+            )?;
+            let skins = doc
+                .json
+                .get("skins")
+                .and_then(|s| s.as_array())
+                .map_or(0, Vec::len);
             writeln!(out, "skins: {skins}")?;
             if let Some(rig) = &doc.rig {
                 describe_rig(&mut out, rig)?;
@@ -39,7 +52,11 @@ pub fn describe(path: &Path, skin: Option<&str>) -> anyhow::Result<String> {
             writeln!(out, "meshes: {}", meshes.len())?;
             for m in meshes {
                 let skinned = if m.skinned { ", skinned" } else { "" };
-                writeln!(out, "  {}: {} vertices, {} triangles{skinned}", m.name, m.vertices, m.triangles)?;
+                writeln!(
+                    out,
+                    "  {}: {} vertices, {} triangles{skinned}",
+                    m.name, m.vertices, m.triangles
+                )?;
             }
             if let Some(rig) = &doc.rig {
                 describe_extent(&mut out, rig)?;
@@ -47,10 +64,18 @@ pub fn describe(path: &Path, skin: Option<&str>) -> anyhow::Result<String> {
         }
         "bvh" => {
             let file = read_rig(path, &RigOptions::default())?;
-            let RigSource::Bvh(doc) = &file.source else { unreachable!("a .bvh path gives a BVH source") };
+            let RigSource::Bvh(doc) = &file.source else {
+                unreachable!("a .bvh path gives a BVH source")
+            };
             writeln!(out, "{}: BVH motion capture", path.display())?;
             describe_rig(&mut out, &file.rig)?;
-            writeln!(out, "frames: {} at {} s ({:.1} fps)", doc.frames.len(), doc.frame_time, 1.0 / doc.frame_time)?;
+            writeln!(
+                out,
+                "frames: {} at {} s ({:.1} fps)",
+                doc.frames.len(),
+                doc.frame_time,
+                1.0 / doc.frame_time
+            )?;
             describe_extent(&mut out, &file.rig)?;
         }
         "ply" | "obj" => {
@@ -59,11 +84,19 @@ pub fn describe(path: &Path, skin: Option<&str>) -> anyhow::Result<String> {
             } else {
                 rigfit_formats::obj::read_obj(path)?
             };
-            let kind = if mesh.is_point_cloud() { "point cloud" } else { "mesh" };
+            let kind = if mesh.is_point_cloud() {
+                "point cloud"
+            } else {
+                "mesh"
+            };
             writeln!(out, "{}: {kind}", path.display())?;
             writeln!(out, "points: {}", mesh.vertices.len())?;
             writeln!(out, "triangles: {}", mesh.triangles.len())?;
-            writeln!(out, "normals: {}", if mesh.normals.is_some() { "yes" } else { "no" })?;
+            writeln!(
+                out,
+                "normals: {}",
+                if mesh.normals.is_some() { "yes" } else { "no" }
+            )?;
             write_bounds(&mut out, mesh.bounds())?;
         }
         "json" => {
@@ -71,10 +104,22 @@ pub fn describe(path: &Path, skin: Option<&str>) -> anyhow::Result<String> {
             writeln!(out, "{}: strokes", path.display())?;
             writeln!(out, "strokes: {}", strokes.len())?;
             for (i, s) in strokes.iter().enumerate() {
-                let pinned = s.bones.as_ref().map(|b| format!(", pinned to {}", b.join(", "))).unwrap_or_default();
-                writeln!(out, "  {i}: {} points, length {:.4}{pinned}", s.points.len(), s.length())?;
+                let pinned = s
+                    .bones
+                    .as_ref()
+                    .map(|b| format!(", pinned to {}", b.join(", ")))
+                    .unwrap_or_default();
+                writeln!(
+                    out,
+                    "  {i}: {} points, length {:.4}{pinned}",
+                    s.points.len(),
+                    s.length()
+                )?;
             }
-            write_bounds(&mut out, Aabb::from_points(strokes.iter().flat_map(|s| &s.points)))?;
+            write_bounds(
+                &mut out,
+                Aabb::from_points(strokes.iter().flat_map(|s| &s.points)),
+            )?;
         }
         _ => bail!(
             "{}: unsupported file type (expected .glb, .gltf, .bvh, .ply, .obj or a strokes .json)",

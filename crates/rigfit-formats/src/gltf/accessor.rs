@@ -17,7 +17,9 @@ pub(crate) fn index_field(obj: &Value, key: &str, path: &str) -> Result<Option<u
             .as_u64()
             .and_then(|n| usize::try_from(n).ok())
             .map(Some)
-            .ok_or_else(|| ParseError::new(format!("{path}.{key}"), "expected a non-negative integer")),
+            .ok_or_else(|| {
+                ParseError::new(format!("{path}.{key}"), "expected a non-negative integer")
+            }),
     }
 }
 
@@ -27,10 +29,18 @@ pub(crate) fn required_index(obj: &Value, key: &str, path: &str) -> Result<usize
 }
 
 /// The `i`th element of a top-level array such as `accessors`.
-pub(crate) fn element<'a>(json: &'a Value, array: &str, i: usize, from: &str) -> Result<&'a Value, ParseError> {
-    json.get(array)
-        .and_then(|a| a.get(i))
-        .ok_or_else(|| ParseError::new(from, format!("refers to {array}[{i}], which does not exist")))
+pub(crate) fn element<'a>(
+    json: &'a Value,
+    array: &str,
+    i: usize,
+    from: &str,
+) -> Result<&'a Value, ParseError> {
+    json.get(array).and_then(|a| a.get(i)).ok_or_else(|| {
+        ParseError::new(
+            from,
+            format!("refers to {array}[{i}], which does not exist"),
+        )
+    })
 }
 
 fn components_of(ty: &str) -> Option<usize> {
@@ -67,7 +77,11 @@ fn read_component(bytes: &[u8], component_type: u64, normalized: bool) -> f64 {
         }
         5122 => {
             let v = i16::from_le_bytes([bytes[0], bytes[1]]) as f64;
-            if normalized { (v / 32767.0).max(-1.0) } else { v }
+            if normalized {
+                (v / 32767.0).max(-1.0)
+            } else {
+                v
+            }
         }
         5123 => {
             let v = u16::from_le_bytes([bytes[0], bytes[1]]) as f64;
@@ -94,9 +108,12 @@ fn read_view(
     let view_path = format!("bufferViews[{view_index}]");
     let view = element(json, "bufferViews", view_index, path)?;
     let buffer_index = required_index(view, "buffer", &view_path)?;
-    let buffer = buffers
-        .get(buffer_index)
-        .ok_or_else(|| ParseError::new(&view_path, format!("refers to buffers[{buffer_index}], which does not exist")))?;
+    let buffer = buffers.get(buffer_index).ok_or_else(|| {
+        ParseError::new(
+            &view_path,
+            format!("refers to buffers[{buffer_index}], which does not exist"),
+        )
+    })?;
     let view_offset = index_field(view, "byteOffset", &view_path)?.unwrap_or(0);
     let view_length = required_index(view, "byteLength", &view_path)?;
     let view_end = view_offset
@@ -118,8 +135,14 @@ fn read_view(
         _ => (components, 1),
     };
     let column_stride = (rows * size).div_ceil(4) * 4;
-    let element_size = if cols > 1 { column_stride * cols } else { components * size };
-    let stride = index_field(view, "byteStride", &view_path)?.unwrap_or(element_size).max(element_size);
+    let element_size = if cols > 1 {
+        column_stride * cols
+    } else {
+        components * size
+    };
+    let stride = index_field(view, "byteStride", &view_path)?
+        .unwrap_or(element_size)
+        .max(element_size);
     if count == 0 {
         return Ok(Vec::new());
     }
@@ -145,7 +168,11 @@ fn read_view(
         for c in 0..cols {
             for r in 0..rows {
                 let at = base + c * if cols > 1 { column_stride } else { 0 } + r * size;
-                out.push(read_component(&buffer[at..at + size], component_type, normalized));
+                out.push(read_component(
+                    &buffer[at..at + size],
+                    component_type,
+                    normalized,
+                ));
             }
         }
     }
@@ -153,20 +180,38 @@ fn read_view(
 }
 
 /// Reads accessor `index` as flat `f64` values; returns them and the components per element.
-pub(crate) fn read_accessor(json: &Value, buffers: &[Vec<u8>], index: usize, from: &str) -> Result<(Vec<f64>, usize), ParseError> {
+pub(crate) fn read_accessor(
+    json: &Value,
+    buffers: &[Vec<u8>],
+    index: usize,
+    from: &str,
+) -> Result<(Vec<f64>, usize), ParseError> {
     let path = format!("accessors[{index}]");
     let acc = element(json, "accessors", index, from)?;
     let count = required_index(acc, "count", &path)?;
     let ty = acc.get("type").and_then(Value::as_str).unwrap_or("");
-    let components = components_of(ty).ok_or_else(|| ParseError::new(&path, format!("unknown type '{ty}'")))?;
-    let component_type = acc.get("componentType").and_then(Value::as_u64).unwrap_or(0);
+    let components =
+        components_of(ty).ok_or_else(|| ParseError::new(&path, format!("unknown type '{ty}'")))?;
+    let component_type = acc
+        .get("componentType")
+        .and_then(Value::as_u64)
+        .unwrap_or(0);
     if component_size(component_type).is_none() {
-        return Err(ParseError::new(&path, format!("unknown componentType {component_type}")));
+        return Err(ParseError::new(
+            &path,
+            format!("unknown componentType {component_type}"),
+        ));
     }
     if count.saturating_mul(components) > MAX_COMPONENTS {
-        return Err(ParseError::new(&path, format!("count {count} is too large")));
+        return Err(ParseError::new(
+            &path,
+            format!("count {count} is too large"),
+        ));
     }
-    let normalized = acc.get("normalized").and_then(Value::as_bool).unwrap_or(false);
+    let normalized = acc
+        .get("normalized")
+        .and_then(Value::as_bool)
+        .unwrap_or(false);
     let byte_offset = index_field(acc, "byteOffset", &path)?.unwrap_or(0);
     let matrix_columns = match ty {
         "MAT2" => Some(2),
@@ -175,32 +220,73 @@ pub(crate) fn read_accessor(json: &Value, buffers: &[Vec<u8>], index: usize, fro
         _ => None,
     };
     let mut values = match index_field(acc, "bufferView", &path)? {
-        Some(view) => read_view(json, buffers, view, byte_offset, count, components, component_type, normalized, &path, matrix_columns)?,
+        Some(view) => read_view(
+            json,
+            buffers,
+            view,
+            byte_offset,
+            count,
+            components,
+            component_type,
+            normalized,
+            &path,
+            matrix_columns,
+        )?,
         None => vec![0.0; count * components],
     };
     if let Some(sparse) = acc.get("sparse") {
         let sp = format!("{path}.sparse");
         let n = required_index(sparse, "count", &sp)?;
-        let idx = sparse.get("indices").ok_or_else(|| ParseError::new(&sp, "missing 'indices'"))?;
-        let val = sparse.get("values").ok_or_else(|| ParseError::new(&sp, "missing 'values'"))?;
-        let idx_type = idx.get("componentType").and_then(Value::as_u64).unwrap_or(0);
+        let idx = sparse
+            .get("indices")
+            .ok_or_else(|| ParseError::new(&sp, "missing 'indices'"))?;
+        let val = sparse
+            .get("values")
+            .ok_or_else(|| ParseError::new(&sp, "missing 'values'"))?;
+        let idx_type = idx
+            .get("componentType")
+            .and_then(Value::as_u64)
+            .unwrap_or(0);
         if !matches!(idx_type, 5121 | 5123 | 5125) {
-            return Err(ParseError::new(format!("{sp}.indices"), "componentType must be an unsigned integer"));
+            return Err(ParseError::new(
+                format!("{sp}.indices"),
+                "componentType must be an unsigned integer",
+            ));
         }
         let indices = read_view(
-            json, buffers, required_index(idx, "bufferView", &sp)?, index_field(idx, "byteOffset", &sp)?.unwrap_or(0),
-            n, 1, idx_type, false, &format!("{sp}.indices"), None,
+            json,
+            buffers,
+            required_index(idx, "bufferView", &sp)?,
+            index_field(idx, "byteOffset", &sp)?.unwrap_or(0),
+            n,
+            1,
+            idx_type,
+            false,
+            &format!("{sp}.indices"),
+            None,
         )?;
         let replacement = read_view(
-            json, buffers, required_index(val, "bufferView", &sp)?, index_field(val, "byteOffset", &sp)?.unwrap_or(0),
-            n, components, component_type, normalized, &format!("{sp}.values"), matrix_columns,
+            json,
+            buffers,
+            required_index(val, "bufferView", &sp)?,
+            index_field(val, "byteOffset", &sp)?.unwrap_or(0),
+            n,
+            components,
+            component_type,
+            normalized,
+            &format!("{sp}.values"),
+            matrix_columns,
         )?;
         for (k, &i) in indices.iter().enumerate() {
             let i = i as usize;
             if i >= count {
-                return Err(ParseError::new(format!("{sp}.indices"), format!("index {i} is out of range (count {count})")));
+                return Err(ParseError::new(
+                    format!("{sp}.indices"),
+                    format!("index {i} is out of range (count {count})"),
+                ));
             }
-            values[i * components..(i + 1) * components].copy_from_slice(&replacement[k * components..(k + 1) * components]);
+            values[i * components..(i + 1) * components]
+                .copy_from_slice(&replacement[k * components..(k + 1) * components]);
         }
     }
     Ok((values, components))
@@ -239,7 +325,8 @@ impl AccessorWriter<'_> {
         }
         let offset = self.bytes.len();
         self.bytes.extend_from_slice(data);
-        let mut view = json!({ "buffer": self.buffer_index, "byteOffset": offset, "byteLength": data.len() });
+        let mut view =
+            json!({ "buffer": self.buffer_index, "byteOffset": offset, "byteLength": data.len() });
         if let Some(t) = target {
             view["target"] = json!(t);
         }
@@ -247,9 +334,18 @@ impl AccessorWriter<'_> {
     }
 
     /// Adds a float accessor of the given type (`VEC3`, `MAT4`, ...), with min/max when asked.
-    pub fn floats(&mut self, values: &[f64], ty: &str, with_bounds: bool, target: Option<u32>) -> usize {
+    pub fn floats(
+        &mut self,
+        values: &[f64],
+        ty: &str,
+        with_bounds: bool,
+        target: Option<u32>,
+    ) -> usize {
         let components = components_of(ty).unwrap_or(1);
-        let data: Vec<u8> = values.iter().flat_map(|&v| (v as f32).to_le_bytes()).collect();
+        let data: Vec<u8> = values
+            .iter()
+            .flat_map(|&v| (v as f32).to_le_bytes())
+            .collect();
         let view = self.push_view(&data, target);
         let mut acc = json!({
             "bufferView": view, "componentType": 5126, "count": values.len() / components, "type": ty,

@@ -16,23 +16,37 @@ fn u32_at(bytes: &[u8], at: usize) -> Result<u32, ParseError> {
     bytes
         .get(at..at + 4)
         .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .ok_or_else(|| ParseError::new(format!("byte {at}"), "file is truncated (GLB header or chunk header cut off)"))
+        .ok_or_else(|| {
+            ParseError::new(
+                format!("byte {at}"),
+                "file is truncated (GLB header or chunk header cut off)",
+            )
+        })
 }
 
 /// Splits a GLB file into its JSON text and its BIN chunk.
 pub fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), ParseError> {
     if !is_glb(bytes) {
-        return Err(ParseError::new("byte 0", "not a GLB file (missing 'glTF' magic)"));
+        return Err(ParseError::new(
+            "byte 0",
+            "not a GLB file (missing 'glTF' magic)",
+        ));
     }
     let version = u32_at(bytes, 4)?;
     if version != 2 {
-        return Err(ParseError::new("header", format!("GLB version {version} is not supported (only 2)")));
+        return Err(ParseError::new(
+            "header",
+            format!("GLB version {version} is not supported (only 2)"),
+        ));
     }
     let length = u32_at(bytes, 8)? as usize;
     if length > bytes.len() {
         return Err(ParseError::new(
             "header",
-            format!("file is truncated: header says {length} bytes, file has {}", bytes.len()),
+            format!(
+                "file is truncated: header says {length} bytes, file has {}",
+                bytes.len()
+            ),
         ));
     }
     let mut at = 12;
@@ -42,9 +56,15 @@ pub fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), ParseError> {
         let chunk_len = u32_at(bytes, at)? as usize;
         let chunk_type = u32_at(bytes, at + 4)?;
         let start = at + 8;
-        let end = start.checked_add(chunk_len).filter(|&e| e <= length).ok_or_else(|| {
-            ParseError::new(format!("byte {at}"), format!("chunk of {chunk_len} bytes runs past the end of the file"))
-        })?;
+        let end = start
+            .checked_add(chunk_len)
+            .filter(|&e| e <= length)
+            .ok_or_else(|| {
+                ParseError::new(
+                    format!("byte {at}"),
+                    format!("chunk of {chunk_len} bytes runs past the end of the file"),
+                )
+            })?;
         match chunk_type {
             CHUNK_JSON if json.is_none() => json = Some(&bytes[start..end]),
             CHUNK_BIN if bin.is_none() && json.is_some() => bin = Some(&bytes[start..end]),

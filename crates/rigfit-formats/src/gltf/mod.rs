@@ -68,7 +68,8 @@ pub fn read_gltf(path: &Path, skin_name: Option<&str>) -> Result<GltfDocument, F
         let file = dir.join(&decoded);
         std::fs::read(&file).map_err(|e| format!("cannot read '{}': {e}", file.display()))
     };
-    let mut doc = parse_gltf(&bytes, &mut load, skin_name).map_err(|e| FormatError::parse(path, e))?;
+    let mut doc =
+        parse_gltf(&bytes, &mut load, skin_name).map_err(|e| FormatError::parse(path, e))?;
     doc.source_dir = Some(dir);
     Ok(doc)
 }
@@ -95,9 +96,12 @@ fn percent_decode(uri: &str) -> String {
 impl GltfDocument {
     /// The rig, or an error naming the problem when the file has no skin.
     pub fn require_rig(&self) -> Result<&Rig, ParseError> {
-        self.rig
-            .as_ref()
-            .ok_or_else(|| ParseError::new("skins", "the file has no skin (no skeleton to pose or track)"))
+        self.rig.as_ref().ok_or_else(|| {
+            ParseError::new(
+                "skins",
+                "the file has no skin (no skeleton to pose or track)",
+            )
+        })
     }
 
     /// Every mesh of the file with its vertex and triangle counts.
@@ -107,14 +111,23 @@ impl GltfDocument {
 
     /// The keys of the `rigfit` animation already in the file, as (time, pose) pairs.
     pub fn rigfit_keys(&self) -> Vec<(f64, rigfit_core::Pose)> {
-        let Some(rig) = &self.rig else { return Vec::new() };
+        let Some(rig) = &self.rig else {
+            return Vec::new();
+        };
         let Some(anim) = rig.animations.iter().find(|a| a.name == RIGFIT_ANIMATION) else {
             return Vec::new();
         };
-        let mut times: Vec<f64> = anim.channels.iter().flat_map(|c| c.times.iter().copied()).collect();
+        let mut times: Vec<f64> = anim
+            .channels
+            .iter()
+            .flat_map(|c| c.times.iter().copied())
+            .collect();
         times.sort_by(f64::total_cmp);
         times.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
-        times.into_iter().map(|t| (t, anim.sample(&rig.pose, t))).collect()
+        times
+            .into_iter()
+            .map(|t| (t, anim.sample(&rig.pose, t)))
+            .collect()
     }
 
     /// The file with `pose` as its node transforms and `keys` (time, pose) as the `rigfit`

@@ -3,8 +3,8 @@
 use base64::Engine as _;
 use nalgebra::Quaternion;
 use rigfit_core::{
-    Animation, AnimationChannel, ChannelTarget, Interpolation, Joint, JointKind, Matrix4, Point3, Quat,
-    Rig, Skeleton, SkinnedMesh, Trs, Vector3,
+    Animation, AnimationChannel, ChannelTarget, Interpolation, Joint, JointKind, Matrix4, Point3,
+    Quat, Rig, Skeleton, SkinnedMesh, Trs, Vector3,
 };
 use serde_json::Value;
 
@@ -18,16 +18,29 @@ pub(super) fn parse(
     load_uri: &mut dyn FnMut(&str) -> Result<Vec<u8>, String>,
     skin_name: Option<&str>,
 ) -> Result<GltfDocument, ParseError> {
-    let (json_bytes, bin) = if is_glb(bytes) { split_glb(bytes)? } else { (bytes, None) };
+    let (json_bytes, bin) = if is_glb(bytes) {
+        split_glb(bytes)?
+    } else {
+        (bytes, None)
+    };
     let json: Value = serde_json::from_slice(json_bytes).map_err(|e| {
-        ParseError::new(format!("JSON line {} column {}", e.line(), e.column()), format!("invalid JSON: {e}"))
+        ParseError::new(
+            format!("JSON line {} column {}", e.line(), e.column()),
+            format!("invalid JSON: {e}"),
+        )
     })?;
     if !json.is_object() {
         return Err(ParseError::new("JSON", "the top level is not an object"));
     }
-    let version = json.pointer("/asset/version").and_then(Value::as_str).unwrap_or("");
+    let version = json
+        .pointer("/asset/version")
+        .and_then(Value::as_str)
+        .unwrap_or("");
     if !version.starts_with('2') {
-        return Err(ParseError::new("asset.version", format!("glTF version '{version}' is not supported (only 2.x)")));
+        return Err(ParseError::new(
+            "asset.version",
+            format!("glTF version '{version}' is not supported (only 2.x)"),
+        ));
     }
     let buffers = resolve_buffers(&json, bin, load_uri)?;
     let mut doc = GltfDocument {
@@ -38,7 +51,11 @@ pub(super) fn parse(
         skin: None,
         source_dir: None,
     };
-    let skins = doc.json.get("skins").and_then(Value::as_array).map_or(0, Vec::len);
+    let skins = doc
+        .json
+        .get("skins")
+        .and_then(Value::as_array)
+        .map_or(0, Vec::len);
     let skin = match skin_name {
         Some(name) => Some(
             (0..skins)
@@ -71,14 +88,22 @@ fn resolve_buffers(
         let data = match b.get("uri").and_then(Value::as_str) {
             None => match (i, bin) {
                 (0, Some(bin)) => bin.to_vec(),
-                _ => return Err(ParseError::new(&path, "has no uri and there is no GLB binary chunk")),
+                _ => {
+                    return Err(ParseError::new(
+                        &path,
+                        "has no uri and there is no GLB binary chunk",
+                    ));
+                }
             },
             Some(uri) if uri.starts_with("data:") => {
                 let comma = uri
                     .find(',')
                     .ok_or_else(|| ParseError::new(&path, "data URI has no ','"))?;
                 if !uri[..comma].ends_with(";base64") {
-                    return Err(ParseError::new(&path, "only base64 data URIs are supported"));
+                    return Err(ParseError::new(
+                        &path,
+                        "only base64 data URIs are supported",
+                    ));
                 }
                 base64::engine::general_purpose::STANDARD
                     .decode(uri[comma + 1..].trim())
@@ -89,7 +114,10 @@ fn resolve_buffers(
         if data.len() < length {
             return Err(ParseError::new(
                 &path,
-                format!("byteLength is {length} but only {} bytes are there (truncated?)", data.len()),
+                format!(
+                    "byteLength is {length} but only {} bytes are there (truncated?)",
+                    data.len()
+                ),
             ));
         }
         out.push(data);
@@ -97,8 +125,14 @@ fn resolve_buffers(
     Ok(out)
 }
 
-fn numbers<const N: usize>(node: &Value, key: &str, path: &str) -> Result<Option<[f64; N]>, ParseError> {
-    let Some(v) = node.get(key) else { return Ok(None) };
+fn numbers<const N: usize>(
+    node: &Value,
+    key: &str,
+    path: &str,
+) -> Result<Option<[f64; N]>, ParseError> {
+    let Some(v) = node.get(key) else {
+        return Ok(None);
+    };
     let arr = v
         .as_array()
         .filter(|a| a.len() == N)
@@ -123,7 +157,10 @@ fn node_trs(node: &Value, path: &str) -> Result<Trs, ParseError> {
     let s = numbers::<3>(node, "scale", path)?.unwrap_or([1.0; 3]);
     let q = Quaternion::new(r[3], r[0], r[1], r[2]);
     if q.norm() < 1e-12 {
-        return Err(ParseError::new(format!("{path}.rotation"), "rotation quaternion has zero length"));
+        return Err(ParseError::new(
+            format!("{path}.rotation"),
+            "rotation quaternion has zero length",
+        ));
     }
     Ok(Trs {
         translation: Vector3::from(t),
@@ -134,10 +171,16 @@ fn node_trs(node: &Value, path: &str) -> Result<Trs, ParseError> {
 
 /// The parent of every node (checking each node has at most one).
 fn node_parents(json: &Value) -> Result<Vec<Option<usize>>, ParseError> {
-    let nodes = json.get("nodes").and_then(Value::as_array).map(Vec::as_slice).unwrap_or(&[]);
+    let nodes = json
+        .get("nodes")
+        .and_then(Value::as_array)
+        .map(Vec::as_slice)
+        .unwrap_or(&[]);
     let mut parents = vec![None; nodes.len()];
     for (i, node) in nodes.iter().enumerate() {
-        let Some(children) = node.get("children").and_then(Value::as_array) else { continue };
+        let Some(children) = node.get("children").and_then(Value::as_array) else {
+            continue;
+        };
         for (k, c) in children.iter().enumerate() {
             let place = format!("nodes[{i}].children[{k}]");
             let c = c
@@ -146,7 +189,10 @@ fn node_parents(json: &Value) -> Result<Vec<Option<usize>>, ParseError> {
                 .filter(|&c| c < nodes.len())
                 .ok_or_else(|| ParseError::new(&place, "not a valid node index"))?;
             if c == i || parents[c].is_some() {
-                return Err(ParseError::new(&place, format!("node {c} has more than one parent")));
+                return Err(ParseError::new(
+                    &place,
+                    format!("node {c} has more than one parent"),
+                ));
             }
             parents[c] = Some(i);
         }
@@ -154,10 +200,18 @@ fn node_parents(json: &Value) -> Result<Vec<Option<usize>>, ParseError> {
     Ok(parents)
 }
 
-fn build_rig(json: &Value, buffers: &[Vec<u8>], skin_index: usize) -> Result<(Rig, Vec<usize>), ParseError> {
+fn build_rig(
+    json: &Value,
+    buffers: &[Vec<u8>],
+    skin_index: usize,
+) -> Result<(Rig, Vec<usize>), ParseError> {
     let skin_path = format!("skins[{skin_index}]");
     let skin = &json["skins"][skin_index];
-    let nodes = json.get("nodes").and_then(Value::as_array).map(Vec::as_slice).unwrap_or(&[]);
+    let nodes = json
+        .get("nodes")
+        .and_then(Value::as_array)
+        .map(Vec::as_slice)
+        .unwrap_or(&[]);
     let skin_joints: Vec<usize> = skin
         .get("joints")
         .and_then(Value::as_array)
@@ -168,7 +222,9 @@ fn build_rig(json: &Value, buffers: &[Vec<u8>], skin_index: usize) -> Result<(Ri
             j.as_u64()
                 .map(|j| j as usize)
                 .filter(|&j| j < nodes.len())
-                .ok_or_else(|| ParseError::new(format!("{skin_path}.joints[{k}]"), "not a valid node index"))
+                .ok_or_else(|| {
+                    ParseError::new(format!("{skin_path}.joints[{k}]"), "not a valid node index")
+                })
         })
         .collect::<Result<_, _>>()?;
     if skin_joints.is_empty() {
@@ -188,7 +244,10 @@ fn build_rig(json: &Value, buffers: &[Vec<u8>], skin_index: usize) -> Result<(Ri
             cur = parents[n];
             steps += 1;
             if steps > nodes.len() {
-                return Err(ParseError::new(format!("nodes[{n}]"), "the node hierarchy has a cycle"));
+                return Err(ParseError::new(
+                    format!("nodes[{n}]"),
+                    "the node hierarchy has a cycle",
+                ));
             }
         }
     }
@@ -201,38 +260,65 @@ fn build_rig(json: &Value, buffers: &[Vec<u8>], skin_index: usize) -> Result<(Ri
     let mut joints = Vec::with_capacity(skeleton_nodes.len());
     for &n in &skeleton_nodes {
         let path = format!("nodes[{n}]");
-        let mut name = nodes[n].get("name").and_then(Value::as_str).map_or_else(|| format!("node{n}"), str::to_owned);
+        let mut name = nodes[n]
+            .get("name")
+            .and_then(Value::as_str)
+            .map_or_else(|| format!("node{n}"), str::to_owned);
         if !seen_names.insert(name.clone()) {
             name = format!("{name}#{n}");
             seen_names.insert(name.clone());
         }
-        let mut joint = Joint::new(name, parents[n].map(|p| local_of_node[p]), node_trs(&nodes[n], &path)?);
-        joint.kind = if skin_joints.contains(&n) { JointKind::Skin } else { JointKind::Helper };
+        let mut joint = Joint::new(
+            name,
+            parents[n].map(|p| local_of_node[p]),
+            node_trs(&nodes[n], &path)?,
+        );
+        joint.kind = if skin_joints.contains(&n) {
+            JointKind::Skin
+        } else {
+            JointKind::Helper
+        };
         joints.push(joint);
     }
-    let (mut skeleton, new_index) = Skeleton::from_unordered(joints)
-        .map_err(|e| ParseError::new(&skin_path, e.to_string()))?;
+    let (mut skeleton, new_index) =
+        Skeleton::from_unordered(joints).map_err(|e| ParseError::new(&skin_path, e.to_string()))?;
     skeleton.set_default_dofs();
     let mut joint_nodes = vec![0; skeleton_nodes.len()];
     for (k, &n) in skeleton_nodes.iter().enumerate() {
         joint_nodes[new_index[k]] = n;
     }
-    let skeleton_of_skin_joint: Vec<usize> = skin_joints.iter().map(|&n| new_index[local_of_node[n]]).collect();
+    let skeleton_of_skin_joint: Vec<usize> = skin_joints
+        .iter()
+        .map(|&n| new_index[local_of_node[n]])
+        .collect();
 
     // Inverse bind matrices, indexed by skeleton joint.
     let mut inverse_bind = vec![Matrix4::identity(); skeleton.len()];
     if let Some(acc) = index_field(skin, "inverseBindMatrices", &skin_path)? {
-        let m = read_accessor_as(json, buffers, acc, 16, &format!("{skin_path}.inverseBindMatrices"))?;
+        let m = read_accessor_as(
+            json,
+            buffers,
+            acc,
+            16,
+            &format!("{skin_path}.inverseBindMatrices"),
+        )?;
         if m.len() / 16 < skin_joints.len() {
             return Err(ParseError::new(
                 format!("accessors[{acc}]"),
-                format!("has {} inverse bind matrices for {} joints", m.len() / 16, skin_joints.len()),
+                format!(
+                    "has {} inverse bind matrices for {} joints",
+                    m.len() / 16,
+                    skin_joints.len()
+                ),
             ));
         }
         for (k, &j) in skeleton_of_skin_joint.iter().enumerate() {
             let mat = Matrix4::from_column_slice(&m[16 * k..16 * k + 16]);
             if mat.iter().any(|v| !v.is_finite()) {
-                return Err(ParseError::new(format!("accessors[{acc}]"), format!("matrix {k} is not finite")));
+                return Err(ParseError::new(
+                    format!("accessors[{acc}]"),
+                    format!("matrix {k} is not finite"),
+                ));
             }
             inverse_bind[j] = mat;
         }
@@ -244,9 +330,15 @@ fn build_rig(json: &Value, buffers: &[Vec<u8>], skin_index: usize) -> Result<(Ri
         if index_field(node, "skin", &path)? != Some(skin_index) {
             continue;
         }
-        let Some(mesh_index) = index_field(node, "mesh", &path)? else { continue };
-        let name = node.get("name").and_then(Value::as_str).map_or_else(|| format!("mesh{mesh_index}"), str::to_owned);
-        let mut mesh = read_skinned_mesh(json, buffers, mesh_index, &skeleton_of_skin_joint, &path)?;
+        let Some(mesh_index) = index_field(node, "mesh", &path)? else {
+            continue;
+        };
+        let name = node
+            .get("name")
+            .and_then(Value::as_str)
+            .map_or_else(|| format!("mesh{mesh_index}"), str::to_owned);
+        let mut mesh =
+            read_skinned_mesh(json, buffers, mesh_index, &skeleton_of_skin_joint, &path)?;
         mesh.name = name;
         mesh.inverse_bind = inverse_bind.clone();
         meshes.push(mesh);
@@ -275,7 +367,11 @@ fn read_skinned_mesh(
     let mesh_path = format!("meshes[{mesh_index}]");
     let mesh_json = element(json, "meshes", mesh_index, from)?;
     let mut mesh = SkinnedMesh::default();
-    let primitives = mesh_json.get("primitives").and_then(Value::as_array).map(Vec::as_slice).unwrap_or(&[]);
+    let primitives = mesh_json
+        .get("primitives")
+        .and_then(Value::as_array)
+        .map(Vec::as_slice)
+        .unwrap_or(&[]);
     let mut all_normals = true;
     let mut normals = Vec::new();
     for (p, prim) in primitives.iter().enumerate() {
@@ -284,23 +380,39 @@ fn read_skinned_mesh(
         if !(4..=6).contains(&mode) {
             continue; // points and lines carry no surface
         }
-        let attrs = prim.get("attributes").ok_or_else(|| ParseError::new(&path, "missing 'attributes'"))?;
+        let attrs = prim
+            .get("attributes")
+            .ok_or_else(|| ParseError::new(&path, "missing 'attributes'"))?;
         let attr = |name: &str| index_field(attrs, name, &format!("{path}.attributes"));
-        let position = attr("POSITION")?.ok_or_else(|| ParseError::new(&path, "missing POSITION"))?;
-        let pos = read_accessor_as(json, buffers, position, 3, &format!("{path}.attributes.POSITION"))?;
+        let position =
+            attr("POSITION")?.ok_or_else(|| ParseError::new(&path, "missing POSITION"))?;
+        let pos = read_accessor_as(
+            json,
+            buffers,
+            position,
+            3,
+            &format!("{path}.attributes.POSITION"),
+        )?;
         let count = pos.len() / 3;
         let base = mesh.positions.len() as u32;
         for (i, c) in pos.chunks(3).enumerate() {
             if c.iter().any(|v| !v.is_finite()) {
-                return Err(ParseError::new(format!("accessors[{position}]"), format!("vertex {i} is not finite")));
+                return Err(ParseError::new(
+                    format!("accessors[{position}]"),
+                    format!("vertex {i} is not finite"),
+                ));
             }
             mesh.positions.push(Point3::new(c[0], c[1], c[2]));
         }
         match attr("NORMAL")? {
             Some(a) if all_normals => {
-                let nrm = read_accessor_as(json, buffers, a, 3, &format!("{path}.attributes.NORMAL"))?;
+                let nrm =
+                    read_accessor_as(json, buffers, a, 3, &format!("{path}.attributes.NORMAL"))?;
                 if nrm.len() != pos.len() {
-                    return Err(ParseError::new(format!("accessors[{a}]"), "NORMAL count differs from POSITION count"));
+                    return Err(ParseError::new(
+                        format!("accessors[{a}]"),
+                        "NORMAL count differs from POSITION count",
+                    ));
                 }
                 normals.extend(nrm.chunks(3).map(|c| Vector3::new(c[0], c[1], c[2])));
             }
@@ -308,12 +420,32 @@ fn read_skinned_mesh(
         }
         let (joints_acc, weights_acc) = match (attr("JOINTS_0")?, attr("WEIGHTS_0")?) {
             (Some(j), Some(w)) => (j, w),
-            _ => return Err(ParseError::new(&path, "skinned primitive without JOINTS_0 and WEIGHTS_0")),
+            _ => {
+                return Err(ParseError::new(
+                    &path,
+                    "skinned primitive without JOINTS_0 and WEIGHTS_0",
+                ));
+            }
         };
-        let jv = read_accessor_as(json, buffers, joints_acc, 4, &format!("{path}.attributes.JOINTS_0"))?;
-        let wv = read_accessor_as(json, buffers, weights_acc, 4, &format!("{path}.attributes.WEIGHTS_0"))?;
+        let jv = read_accessor_as(
+            json,
+            buffers,
+            joints_acc,
+            4,
+            &format!("{path}.attributes.JOINTS_0"),
+        )?;
+        let wv = read_accessor_as(
+            json,
+            buffers,
+            weights_acc,
+            4,
+            &format!("{path}.attributes.WEIGHTS_0"),
+        )?;
         if jv.len() != pos.len() / 3 * 4 || wv.len() != jv.len() {
-            return Err(ParseError::new(&path, "JOINTS_0 / WEIGHTS_0 counts differ from POSITION count"));
+            return Err(ParseError::new(
+                &path,
+                "JOINTS_0 / WEIGHTS_0 counts differ from POSITION count",
+            ));
         }
         for (v, (j, w)) in jv.chunks(4).zip(wv.chunks(4)).enumerate() {
             let mut ji = [0u32; 4];
@@ -321,7 +453,10 @@ fn read_skinned_mesh(
             for k in 0..4 {
                 let weight = w[k];
                 if !weight.is_finite() || weight < 0.0 {
-                    return Err(ParseError::new(format!("accessors[{weights_acc}]"), format!("vertex {v} has a bad weight")));
+                    return Err(ParseError::new(
+                        format!("accessors[{weights_acc}]"),
+                        format!("vertex {v} has a bad weight"),
+                    ));
                 }
                 if weight == 0.0 {
                     continue;
@@ -330,7 +465,10 @@ fn read_skinned_mesh(
                 let joint = skeleton_of_skin_joint.get(skin_joint).ok_or_else(|| {
                     ParseError::new(
                         format!("accessors[{joints_acc}]"),
-                        format!("vertex {v} uses joint {skin_joint}, but the skin has {} joints", skeleton_of_skin_joint.len()),
+                        format!(
+                            "vertex {v} uses joint {skin_joint}, but the skin has {} joints",
+                            skeleton_of_skin_joint.len()
+                        ),
                     )
                 })?;
                 ji[k] = *joint as u32;
@@ -351,17 +489,29 @@ fn read_skinned_mesh(
             None => (0..count as u32).collect(),
         };
         if let Some(bad) = indices.iter().find(|&&i| i as usize >= count) {
-            return Err(ParseError::new(format!("{path}.indices"), format!("index {bad} is out of range ({count} vertices)")));
+            return Err(ParseError::new(
+                format!("{path}.indices"),
+                format!("index {bad} is out of range ({count} vertices)"),
+            ));
         }
         let tri = |a: u32, b: u32, c: u32| [base + a, base + b, base + c];
         match mode {
-            4 => mesh.triangles.extend(indices.chunks_exact(3).map(|t| tri(t[0], t[1], t[2]))),
-            5 => mesh.triangles.extend(indices.windows(3).enumerate().map(|(i, t)| {
-                if i % 2 == 0 { tri(t[0], t[1], t[2]) } else { tri(t[1], t[0], t[2]) }
-            })),
+            4 => mesh
+                .triangles
+                .extend(indices.chunks_exact(3).map(|t| tri(t[0], t[1], t[2]))),
+            5 => mesh
+                .triangles
+                .extend(indices.windows(3).enumerate().map(|(i, t)| {
+                    if i % 2 == 0 {
+                        tri(t[0], t[1], t[2])
+                    } else {
+                        tri(t[1], t[0], t[2])
+                    }
+                })),
             _ => {
                 if let Some((&first, rest)) = indices.split_first() {
-                    mesh.triangles.extend(rest.windows(2).map(|t| tri(first, t[0], t[1])));
+                    mesh.triangles
+                        .extend(rest.windows(2).map(|t| tri(first, t[0], t[1])));
                 }
             }
         }
@@ -376,21 +526,42 @@ fn read_animations(
     local_of_node: &[usize],
     new_index: &[usize],
 ) -> Result<Vec<Animation>, ParseError> {
-    let anims = json.get("animations").and_then(Value::as_array).map(Vec::as_slice).unwrap_or(&[]);
+    let anims = json
+        .get("animations")
+        .and_then(Value::as_array)
+        .map(Vec::as_slice)
+        .unwrap_or(&[]);
     let mut out = Vec::with_capacity(anims.len());
     for (a, anim) in anims.iter().enumerate() {
         let path = format!("animations[{a}]");
-        let samplers = anim.get("samplers").and_then(Value::as_array).map(Vec::as_slice).unwrap_or(&[]);
+        let samplers = anim
+            .get("samplers")
+            .and_then(Value::as_array)
+            .map(Vec::as_slice)
+            .unwrap_or(&[]);
         let mut animation = Animation {
-            name: anim.get("name").and_then(Value::as_str).map_or_else(|| format!("animation{a}"), str::to_owned),
+            name: anim
+                .get("name")
+                .and_then(Value::as_str)
+                .map_or_else(|| format!("animation{a}"), str::to_owned),
             ..Default::default()
         };
-        let channels = anim.get("channels").and_then(Value::as_array).map(Vec::as_slice).unwrap_or(&[]);
+        let channels = anim
+            .get("channels")
+            .and_then(Value::as_array)
+            .map(Vec::as_slice)
+            .unwrap_or(&[]);
         for (c, ch) in channels.iter().enumerate() {
             let cpath = format!("{path}.channels[{c}]");
-            let target = ch.get("target").ok_or_else(|| ParseError::new(&cpath, "missing 'target'"))?;
-            let Some(node) = index_field(target, "node", &format!("{cpath}.target"))? else { continue };
-            let Some(&local) = local_of_node.get(node).filter(|&&l| l != usize::MAX) else { continue };
+            let target = ch
+                .get("target")
+                .ok_or_else(|| ParseError::new(&cpath, "missing 'target'"))?;
+            let Some(node) = index_field(target, "node", &format!("{cpath}.target"))? else {
+                continue;
+            };
+            let Some(&local) = local_of_node.get(node).filter(|&&l| l != usize::MAX) else {
+                continue;
+            };
             let target_kind = match target.get("path").and_then(Value::as_str) {
                 Some("translation") => ChannelTarget::Translation,
                 Some("rotation") => ChannelTarget::Rotation,
@@ -399,19 +570,48 @@ fn read_animations(
             };
             let s = required_index(ch, "sampler", &cpath)?;
             let spath = format!("{path}.samplers[{s}]");
-            let sampler = samplers.get(s).ok_or_else(|| ParseError::new(&cpath, format!("sampler {s} does not exist")))?;
-            let interpolation = match sampler.get("interpolation").and_then(Value::as_str).unwrap_or("LINEAR") {
+            let sampler = samplers
+                .get(s)
+                .ok_or_else(|| ParseError::new(&cpath, format!("sampler {s} does not exist")))?;
+            let interpolation = match sampler
+                .get("interpolation")
+                .and_then(Value::as_str)
+                .unwrap_or("LINEAR")
+            {
                 "STEP" => Interpolation::Step,
                 "CUBICSPLINE" => Interpolation::CubicSpline,
                 _ => Interpolation::Linear,
             };
-            let times = read_accessor_as(json, buffers, required_index(sampler, "input", &spath)?, 1, &format!("{spath}.input"))?;
+            let times = read_accessor_as(
+                json,
+                buffers,
+                required_index(sampler, "input", &spath)?,
+                1,
+                &format!("{spath}.input"),
+            )?;
             if times.iter().any(|t| !t.is_finite()) || times.windows(2).any(|w| w[1] < w[0]) {
-                return Err(ParseError::new(format!("{spath}.input"), "key times must be finite and increasing"));
+                return Err(ParseError::new(
+                    format!("{spath}.input"),
+                    "key times must be finite and increasing",
+                ));
             }
-            let width = if target_kind == ChannelTarget::Rotation { 4 } else { 3 };
-            let raw = read_accessor_as(json, buffers, required_index(sampler, "output", &spath)?, width, &format!("{spath}.output"))?;
-            let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+            let width = if target_kind == ChannelTarget::Rotation {
+                4
+            } else {
+                3
+            };
+            let raw = read_accessor_as(
+                json,
+                buffers,
+                required_index(sampler, "output", &spath)?,
+                width,
+                &format!("{spath}.output"),
+            )?;
+            let per_key = if interpolation == Interpolation::CubicSpline {
+                3
+            } else {
+                1
+            };
             if raw.len() != times.len() * per_key * width {
                 return Err(ParseError::new(
                     format!("{spath}.output"),
@@ -419,11 +619,20 @@ fn read_animations(
                 ));
             }
             if raw.iter().any(|v| !v.is_finite()) {
-                return Err(ParseError::new(format!("{spath}.output"), "values are not finite"));
+                return Err(ParseError::new(
+                    format!("{spath}.output"),
+                    "values are not finite",
+                ));
             }
             let values = raw
                 .chunks(width)
-                .map(|v| if width == 4 { [v[0], v[1], v[2], v[3]] } else { [v[0], v[1], v[2], 0.0] })
+                .map(|v| {
+                    if width == 4 {
+                        [v[0], v[1], v[2], v[3]]
+                    } else {
+                        [v[0], v[1], v[2], 0.0]
+                    }
+                })
                 .collect();
             animation.channels.push(AnimationChannel {
                 joint: new_index[local],
@@ -439,8 +648,16 @@ fn read_animations(
 }
 
 pub(super) fn mesh_summaries(json: &Value) -> Vec<MeshSummary> {
-    let meshes = json.get("meshes").and_then(Value::as_array).map(Vec::as_slice).unwrap_or(&[]);
-    let nodes = json.get("nodes").and_then(Value::as_array).map(Vec::as_slice).unwrap_or(&[]);
+    let meshes = json
+        .get("meshes")
+        .and_then(Value::as_array)
+        .map(Vec::as_slice)
+        .unwrap_or(&[]);
+    let nodes = json
+        .get("nodes")
+        .and_then(Value::as_array)
+        .map(Vec::as_slice)
+        .unwrap_or(&[]);
     let count = |acc: Option<u64>| {
         acc.and_then(|a| json.pointer(&format!("/accessors/{a}/count")))
             .and_then(Value::as_u64)
@@ -450,8 +667,15 @@ pub(super) fn mesh_summaries(json: &Value) -> Vec<MeshSummary> {
         .iter()
         .enumerate()
         .map(|(m, mesh)| {
-            let prims = mesh.get("primitives").and_then(Value::as_array).map(Vec::as_slice).unwrap_or(&[]);
-            let vertices = prims.iter().map(|p| count(p.pointer("/attributes/POSITION").and_then(Value::as_u64))).sum();
+            let prims = mesh
+                .get("primitives")
+                .and_then(Value::as_array)
+                .map(Vec::as_slice)
+                .unwrap_or(&[]);
+            let vertices = prims
+                .iter()
+                .map(|p| count(p.pointer("/attributes/POSITION").and_then(Value::as_u64)))
+                .sum();
             let triangles = prims
                 .iter()
                 .map(|p| match p.get("indices").and_then(Value::as_u64) {
@@ -460,12 +684,16 @@ pub(super) fn mesh_summaries(json: &Value) -> Vec<MeshSummary> {
                 })
                 .sum();
             MeshSummary {
-                name: mesh.get("name").and_then(Value::as_str).map_or_else(|| format!("mesh{m}"), str::to_owned),
+                name: mesh
+                    .get("name")
+                    .and_then(Value::as_str)
+                    .map_or_else(|| format!("mesh{m}"), str::to_owned),
                 vertices,
                 triangles,
-                skinned: nodes
-                    .iter()
-                    .any(|n| n.get("mesh").and_then(Value::as_u64) == Some(m as u64) && n.get("skin").is_some()),
+                skinned: nodes.iter().any(|n| {
+                    n.get("mesh").and_then(Value::as_u64) == Some(m as u64)
+                        && n.get("skin").is_some()
+                }),
             }
         })
         .collect()

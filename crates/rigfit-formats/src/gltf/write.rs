@@ -34,7 +34,9 @@ fn data_uri(bytes: &[u8]) -> String {
 /// accessor, buffer-view and buffer arrays (as rigfit writes it), so re-keying a file does not
 /// grow it.
 fn remove_rigfit_animation(json: &mut Value, buffers: &mut [Vec<u8>]) {
-    let Some(anims) = json.get("animations").and_then(Value::as_array) else { return };
+    let Some(anims) = json.get("animations").and_then(Value::as_array) else {
+        return;
+    };
     let Some(a) = anims
         .iter()
         .position(|x| x.get("name").and_then(Value::as_str) == Some(RIGFIT_ANIMATION))
@@ -55,25 +57,42 @@ fn remove_rigfit_animation(json: &mut Value, buffers: &mut [Vec<u8>]) {
         .unwrap_or_default();
     accessors.sort_unstable();
     accessors.dedup();
-    json["animations"].as_array_mut().expect("checked above").remove(a);
+    json["animations"]
+        .as_array_mut()
+        .expect("checked above")
+        .remove(a);
     if json["animations"].as_array().is_some_and(Vec::is_empty) {
         json.as_object_mut().map(|o| o.remove("animations"));
     }
-    let n_acc = json.get("accessors").and_then(Value::as_array).map_or(0, Vec::len);
+    let n_acc = json
+        .get("accessors")
+        .and_then(Value::as_array)
+        .map_or(0, Vec::len);
     let is_tail = |idx: &[usize], len: usize| {
-        !idx.is_empty() && idx.iter().enumerate().all(|(k, &i)| i == len - idx.len() + k)
+        !idx.is_empty()
+            && idx
+                .iter()
+                .enumerate()
+                .all(|(k, &i)| i == len - idx.len() + k)
     };
     if !is_tail(&accessors, n_acc) {
         return;
     }
     let mut views: Vec<usize> = accessors
         .iter()
-        .filter_map(|&i| json["accessors"][i].get("bufferView").and_then(Value::as_u64))
+        .filter_map(|&i| {
+            json["accessors"][i]
+                .get("bufferView")
+                .and_then(Value::as_u64)
+        })
         .map(|v| v as usize)
         .collect();
     views.sort_unstable();
     views.dedup();
-    let n_views = json.get("bufferViews").and_then(Value::as_array).map_or(0, Vec::len);
+    let n_views = json
+        .get("bufferViews")
+        .and_then(Value::as_array)
+        .map_or(0, Vec::len);
     if !is_tail(&views, n_views) {
         return;
     }
@@ -86,15 +105,22 @@ fn remove_rigfit_animation(json: &mut Value, buffers: &mut [Vec<u8>]) {
         }
         cut = cut.min(view.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize);
     }
-    json["accessors"].as_array_mut().expect("array").truncate(n_acc - accessors.len());
-    json["bufferViews"].as_array_mut().expect("array").truncate(n_views - views.len());
+    json["accessors"]
+        .as_array_mut()
+        .expect("array")
+        .truncate(n_acc - accessors.len());
+    json["bufferViews"]
+        .as_array_mut()
+        .expect("array")
+        .truncate(n_views - views.len());
     let max_other_end = json["bufferViews"]
         .as_array()
         .expect("array")
         .iter()
         .filter(|v| v.get("buffer").and_then(Value::as_u64) == Some(0))
         .map(|v| {
-            v.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) + v.get("byteLength").and_then(Value::as_u64).unwrap_or(0)
+            v.get("byteOffset").and_then(Value::as_u64).unwrap_or(0)
+                + v.get("byteLength").and_then(Value::as_u64).unwrap_or(0)
         })
         .max()
         .unwrap_or(0) as usize;
@@ -126,17 +152,29 @@ fn append_pose_animation(
     for &(joint, target) in keyed {
         let (values, ty, path): (Vec<f64>, _, _) = match target {
             ChannelTarget::Rotation => (
-                keys.iter().flat_map(|(_, p)| quat_to_xyzw(&p.local[joint].rotation)).collect(),
+                keys.iter()
+                    .flat_map(|(_, p)| quat_to_xyzw(&p.local[joint].rotation))
+                    .collect(),
                 "VEC4",
                 "rotation",
             ),
             ChannelTarget::Translation => (
-                keys.iter().flat_map(|(_, p)| p.local[joint].translation.iter().copied().collect::<Vec<_>>()).collect(),
+                keys.iter()
+                    .flat_map(|(_, p)| {
+                        p.local[joint]
+                            .translation
+                            .iter()
+                            .copied()
+                            .collect::<Vec<_>>()
+                    })
+                    .collect(),
                 "VEC3",
                 "translation",
             ),
             ChannelTarget::Scale => (
-                keys.iter().flat_map(|(_, p)| p.local[joint].scale.iter().copied().collect::<Vec<_>>()).collect(),
+                keys.iter()
+                    .flat_map(|(_, p)| p.local[joint].scale.iter().copied().collect::<Vec<_>>())
+                    .collect(),
                 "VEC3",
                 "scale",
             ),
@@ -145,7 +183,11 @@ fn append_pose_animation(
         channels.push(json!({ "sampler": samplers.len(), "target": { "node": joint_nodes[joint], "path": path } }));
         samplers.push(json!({ "input": input, "output": output, "interpolation": "LINEAR" }));
     }
-    push(w.json, "animations", json!({ "name": name, "channels": channels, "samplers": samplers }));
+    push(
+        w.json,
+        "animations",
+        json!({ "name": name, "channels": channels, "samplers": samplers }),
+    );
 }
 
 pub(super) fn to_bytes(
@@ -180,7 +222,14 @@ pub(super) fn to_bytes(
             }
         }
         let mut bytes = std::mem::take(&mut buffers[0]);
-        append_pose_animation(&mut json, &mut bytes, RIGFIT_ANIMATION, &keyed, keys, &doc.joint_nodes);
+        append_pose_animation(
+            &mut json,
+            &mut bytes,
+            RIGFIT_ANIMATION,
+            &keyed,
+            keys,
+            &doc.joint_nodes,
+        );
         buffers[0] = bytes;
     }
     // Buffers: GLB keeps buffer 0 in its binary chunk; everything else is embedded.
@@ -196,7 +245,8 @@ pub(super) fn to_bytes(
     // Images referenced by relative paths stay reachable from a new directory.
     if let (Some(src), Some(out)) = (&doc.source_dir, out_dir) {
         let same = src.canonicalize().ok() == out.canonicalize().ok();
-        if let (false, Some(images)) = (same, json.get_mut("images").and_then(Value::as_array_mut)) {
+        if let (false, Some(images)) = (same, json.get_mut("images").and_then(Value::as_array_mut))
+        {
             for img in images {
                 if let Some(uri) = img.get("uri").and_then(Value::as_str) {
                     if !uri.starts_with("data:") && !uri.contains("://") {
@@ -262,21 +312,38 @@ pub fn rig_to_glb(rig: &Rig) -> Vec<u8> {
             })
             .collect();
         let ibm = w.floats(&inverse_bind, "MAT4", false, None);
-        push(w.json, "skins", json!({ "joints": skin_joints, "inverseBindMatrices": ibm }));
+        push(
+            w.json,
+            "skins",
+            json!({ "joints": skin_joints, "inverseBindMatrices": ibm }),
+        );
         for mesh in &rig.meshes {
-            let pos: Vec<f64> = mesh.positions.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+            let pos: Vec<f64> = mesh
+                .positions
+                .iter()
+                .flat_map(|p| [p.x, p.y, p.z])
+                .collect();
             let mut attributes = json!({ "POSITION": w.floats(&pos, "VEC3", true, Some(34962)) });
             if let Some(normals) = &mesh.normals {
                 let n: Vec<f64> = normals.iter().flat_map(|n| [n.x, n.y, n.z]).collect();
                 attributes["NORMAL"] = json!(w.floats(&n, "VEC3", false, Some(34962)));
             }
-            let joints: Vec<u16> = mesh.joints.iter().flat_map(|j| j.map(|i| skin_of_joint[i as usize])).collect();
+            let joints: Vec<u16> = mesh
+                .joints
+                .iter()
+                .flat_map(|j| j.map(|i| skin_of_joint[i as usize]))
+                .collect();
             attributes["JOINTS_0"] = json!(w.u16s(&joints, "VEC4"));
             let weights: Vec<f64> = mesh.weights.iter().flat_map(|w| w.map(f64::from)).collect();
             attributes["WEIGHTS_0"] = json!(w.floats(&weights, "VEC4", false, Some(34962)));
             let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-            let prim = json!({ "attributes": attributes, "indices": w.indices(&indices), "mode": 4 });
-            let m = push(w.json, "meshes", json!({ "name": mesh.name, "primitives": [prim] }));
+            let prim =
+                json!({ "attributes": attributes, "indices": w.indices(&indices), "mode": 4 });
+            let m = push(
+                w.json,
+                "meshes",
+                json!({ "name": mesh.name, "primitives": [prim] }),
+            );
             nodes.push(json!({ "name": mesh.name, "mesh": m, "skin": 0 }));
             scene_nodes.push(nodes.len() - 1);
         }
@@ -298,9 +365,15 @@ pub fn rig_to_glb(rig: &Rig) -> Vec<u8> {
                     Interpolation::CubicSpline => "CUBICSPLINE",
                 };
                 channels.push(json!({ "sampler": samplers.len(), "target": { "node": c.joint, "path": path } }));
-                samplers.push(json!({ "input": input, "output": output, "interpolation": interpolation }));
+                samplers.push(
+                    json!({ "input": input, "output": output, "interpolation": interpolation }),
+                );
             }
-            push(w.json, "animations", json!({ "name": anim.name, "channels": channels, "samplers": samplers }));
+            push(
+                w.json,
+                "animations",
+                json!({ "name": anim.name, "channels": channels, "samplers": samplers }),
+            );
         }
     }
     json["nodes"] = json!(nodes);

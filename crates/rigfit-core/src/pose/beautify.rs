@@ -1,0 +1,114 @@
+//! Stroke beautification: even resampling and smoothing of oversampled, jittery input.
+
+use crate::math::Point3;
+
+/// Points at even arclength spacing along a polyline, including both ends: at least two,
+/// and about `length / spacing` + 1 in all.
+pub fn resample(points: &[Point3], spacing: f64) -> Vec<Point3> {
+    let Some(&first) = points.first() else {
+        return Vec::new();
+    };
+    let cumulative: Vec<f64> = std::iter::once(0.0)
+        .chain(points.windows(2).scan(0.0, |acc, w| {
+            *acc += (w[1] - w[0]).norm();
+            Some(*acc)
+        }))
+        .collect();
+    let length = *cumulative.last().unwrap_or(&0.0);
+    if length <= 0.0 || spacing <= 0.0 {
+        return vec![first, *points.last().unwrap_or(&first)];
+    }
+    let n = ((length / spacing).round() as usize).max(1);
+    let mut out = Vec::with_capacity(n + 1);
+    let mut seg = 0;
+    for s in 0..=n {
+        let target = length * s as f64 / n as f64;
+        while seg + 2 < cumulative.len() && cumulative[seg + 1] < target {
+            seg += 1;
+        }
+        let (a, b) = (cumulative[seg], cumulative[seg + 1]);
+        let t = if b > a {
+            ((target - a) / (b - a)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        out.push(points[seg] + (points[seg + 1] - points[seg]) * t);
+    }
+    out
+}
+
+/// Laplacian smoothing with fixed ends: each pass moves every inner point halfway toward
+/// the mean of its neighbours.
+pub fn smooth(points: &mut [Point3], passes: usize) {
+    let n = points.len();
+    if n < 3 {
+        return;
+    }
+    let mut next = points.to_vec();
+    for _ in 0..passes {
+        for i in 1..n - 1 {
+            let mean = nalgebra::center(&points[i - 1], &points[i + 1]);
+            next[i] = nalgebra::center(&points[i], &mean);
+        }
+        points.copy_from_slice(&next);
+    }
+}
+
+/// Dense input (many points per `spacing`) is first averaged over windows of about
+/// `spacing`, which removes controller jitter without shortening the stroke; then the
+/// stroke is resampled evenly and smoothed lightly.
+pub fn beautify(points: &[Point3], spacing: f64) -> Vec<Point3> {
+    let fine = resample(points, spacing / 4.0);
+    // A moving average over a window of one spacing (4 fine samples each side -> 9).
+    let half = 4usize;
+    let n = fine.len();
+    let mut averaged = Vec::with_capacity(n);
+    for i in 0..n {
+        let lo = i.saturating_sub(half);
+        let hi = (i + half).min(n - 1);
+        // Shrink the window symmetrically near the ends so the end points stay put.
+        let r = (i - lo).min(hi - i);
+        let sum: nalgebra::Vector3<f64> = fine[i - r..=i + r].iter().map(|p| p.coords).sum();
+        averaged.push(Point3::from(sum / (2 * r + 1) as f64));
+    }
+    let mut out = resample(&averaged, spacing);
+    smooth(&mut out, 2);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resampling_is_even_and_keeps_the_ends() {
+        let line = vec![
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(0.1, 0.0, 0.0),
+            Point3::new(1.0, 0.0, 0.0),
+        ];
+        let r = resample(&line, 0.25);
+        assert_eq!(r.len(), 5);
+        assert!((r[2].x - 0.5).abs() < 1e-12);
+        assert!((r[4].x - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn beautify_reduces_jitter() {
+        let mut state = 7u64;
+        let mut noise = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1);
+            ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.02
+        };
+        let jittery: Vec<Point3> = (0..1000)
+            .map(|i| Point3::new(i as f64 / 1000.0, noise(), noise()))
+            .collect();
+        let clean = beautify(&jittery, 0.05);
+        let worst = clean
+            .iter()
+            .map(|p| p.y.abs().max(p.z.abs()))
+            .fold(0.0, f64::max);
+        assert!(worst < 0.004, "residual jitter {worst}");
+        assert!((clean.last().expect("points").x - 1.0).abs() < 0.01);
+    }
+}

@@ -1,0 +1,152 @@
+//! The model side of sketch posing: points sampled along the bones of a skeleton, and the
+//! chains of bones a single stroke can cover.
+
+use std::ops::Range;
+
+use crate::kinematics::ForwardKinematics;
+use crate::math::{Point3, transform_point};
+use crate::skeleton::{JointKind, Pose, Skeleton};
+
+/// A bone: the segment from a joint to one of its children, carried by the joint.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bone {
+    /// The joint whose rotation turns the bone.
+    pub joint: usize,
+    /// The joint at the bone's tip.
+    pub child: usize,
+    pub length: f64,
+}
+
+/// A point rigidly attached to a joint.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModelPoint {
+    pub bone: usize,
+    pub joint: usize,
+    /// The point in the joint's local frame.
+    pub local: Point3,
+}
+
+/// Bones of a skeleton with points sampled along them (`V` of Cannavò et al. eq. 1).
+#[derive(Clone, Debug)]
+pub struct BoneModel {
+    pub bones: Vec<Bone>,
+    pub points: Vec<ModelPoint>,
+    /// The points of each bone, ordered from its joint to its child.
+    pub bone_points: Vec<Range<usize>>,
+    /// The bones that continue each bone (start at its tip, possibly through zero-length
+    /// links such as a hip joint placed on the pelvis).
+    pub next_bones: Vec<Vec<usize>>,
+}
+
+impl BoneModel {
+    /// Samples every bone longer than `min_length` with points about `spacing` apart, in the
+    /// configuration `pose`. Bones are segments from a joint under the character's root to
+    /// a skin joint or an end site.
+    pub fn new(skeleton: &Skeleton, pose: &Pose, spacing: f64, min_length: f64) -> Self {
+        let fk = ForwardKinematics::new(skeleton, pose);
+        let root = skeleton.skin_root();
+        let under_root = |j: usize| match root {
+            Some(r) => skeleton.is_ancestor_or_self(r, j),
+            None => skeleton.joint(j).kind != JointKind::Helper,
+        };
+        // Each joint's anchor: itself, or the first ancestor reached through zero-length links.
+        let mut anchor: Vec<usize> = (0..skeleton.len()).collect();
+        for j in 0..skeleton.len() {
+            if let Some(p) = skeleton.joint(j).parent {
+                if (fk.position(j) - fk.position(p)).norm() < min_length {
+                    anchor[j] = anchor[p];
+                }
+            }
+        }
+        let mut bones = Vec::new();
+        let mut points = Vec::new();
+        let mut bone_points = Vec::new();
+        for c in 0..skeleton.len() {
+            let Some(j) = skeleton.joint(c).parent else {
+                continue;
+            };
+            if skeleton.joint(c).kind == JointKind::Helper || !under_root(j) {
+                continue;
+            }
+            let (a, b) = (fk.position(j), fk.position(c));
+            let length = (b - a).norm();
+            if length < min_length {
+                continue;
+            }
+            let n = ((length / spacing).round() as usize).max(1);
+            let inverse = fk
+                .world(j)
+                .try_inverse()
+                .unwrap_or_else(crate::math::Matrix4::identity);
+            let start = points.len();
+            for i in 0..n {
+                let t = (i as f64 + 0.5) / n as f64;
+                let p = a + (b - a) * t;
+                points.push(ModelPoint {
+                    bone: bones.len(),
+                    joint: j,
+                    local: transform_point(&inverse, &p),
+                });
+            }
+            bone_points.push(start..points.len());
+            bones.push(Bone {
+                joint: j,
+                child: c,
+                length,
+            });
+        }
+        let next_bones = bones
+            .iter()
+            .map(|b| {
+                (0..bones.len())
+                    .filter(|&k| anchor[bones[k].joint] == anchor[b.child])
+                    .collect()
+            })
+            .collect();
+        Self {
+            bones,
+            points,
+            bone_points,
+            next_bones,
+        }
+    }
+
+    /// The world position of every model point.
+    pub fn world_points(&self, fk: &ForwardKinematics) -> Vec<Point3> {
+        self.points
+            .iter()
+            .map(|p| fk.point(p.joint, &p.local))
+            .collect()
+    }
+
+    /// Every chain of up to `max_bones` bones that one stroke could cover: sequences of
+    /// bones, each continuing the one before.
+    pub fn chains(&self, max_bones: usize) -> Vec<Vec<usize>> {
+        let mut out = Vec::new();
+        let mut stack: Vec<Vec<usize>> = (0..self.bones.len()).map(|b| vec![b]).collect();
+        while let Some(chain) = stack.pop() {
+            let last = *chain.last().expect("chains are never empty");
+            if chain.len() < max_bones {
+                for &n in &self.next_bones[last] {
+                    let mut longer = chain.clone();
+                    longer.push(n);
+                    stack.push(longer);
+                }
+            }
+            out.push(chain);
+        }
+        out
+    }
+
+    /// The polyline of a chain in world space: the first bone's joint, then every bone's tip.
+    pub fn chain_polyline(&self, chain: &[usize], fk: &ForwardKinematics) -> Vec<Point3> {
+        let mut line = Vec::with_capacity(chain.len() + 1);
+        if let Some(&first) = chain.first() {
+            line.push(fk.position(self.bones[first].joint));
+        }
+        for &b in chain {
+            line.push(fk.position(self.bones[b].child));
+        }
+        line
+    }
+}

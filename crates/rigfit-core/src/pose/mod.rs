@@ -1,0 +1,623 @@
+//! Posing a skeleton from 3D strokes (Cannavò et al. 2020, section 3.2): match stroke
+//! points to points along the bones by softassign under deterministic annealing, solve the
+//! joint rotations that align the bones to their matches, and alternate until the match
+//! converges. Beyond the paper: stroke beautification, a rigid multi-start alignment for a
+//! far start pose, and a chain step that gives each stroke one connected chain of bones,
+//! so undrawn limbs keep their start pose and stray strokes are set aside.
+
+pub mod beautify;
+pub mod bones;
+pub mod cases;
+mod chains;
+
+use crate::engine::{MatchMatrix, NormalEquations, SoftassignParams, softassign};
+use crate::kinematics::{DofLayout, ForwardKinematics};
+use crate::math::{Matrix4, Point3, Quat, Trs, Vector3, translation_part};
+use crate::skeleton::{JointDof, Pose, Skeleton};
+use crate::strokes::Stroke;
+
+pub use bones::BoneModel;
+
+/// How the solver runs. [`PoseOptions::paper`] is the method as published;
+/// [`PoseOptions::default`] adds rigfit's improvements. Lengths are fractions of the
+/// character's height.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PoseOptions {
+    /// Resample strokes evenly and smooth them before matching.
+    pub beautify: bool,
+    /// Before articulated fitting, align the whole character rigidly from several headings
+    /// and keep the best.
+    pub rigid_init: bool,
+    /// Give each stroke one connected chain of bones (in order) and restrict its matches to
+    /// it; undrawn bones keep their start pose; strokes no chain explains are set aside.
+    pub chain_assignment: bool,
+    /// Spacing of model and stroke samples.
+    pub spacing: f64,
+    /// Annealing: the match scale `sigma = 1/sqrt(beta)` goes from `sigma_start` to
+    /// `sigma_end`.
+    pub sigma_start: f64,
+    pub sigma_end: f64,
+    /// Steps of the annealing schedule.
+    pub anneal_steps: usize,
+    /// Paper: beta grows by a fixed amount per step; otherwise geometrically.
+    pub additive_beta: bool,
+    /// `zeta` of eq. (1) as a distance: matches further than this lose to the outlier class.
+    pub outlier_distance: f64,
+    /// Weight of `Phi(p)`: keeps joint rotations near the start pose.
+    pub prior_weight: f64,
+    /// Gauss-Newton steps per match update.
+    pub gauss_newton_steps: usize,
+    /// Extra iterations at the final temperature until the match converges.
+    pub max_final_iterations: usize,
+    /// A stroke whose RMS distance to its best chain exceeds this is a stray.
+    pub stray_distance: f64,
+}
+
+impl Default for PoseOptions {
+    fn default() -> Self {
+        Self {
+            beautify: true,
+            rigid_init: true,
+            chain_assignment: true,
+            spacing: 0.025,
+            sigma_start: 0.2,
+            sigma_end: 0.012,
+            anneal_steps: 14,
+            additive_beta: false,
+            outlier_distance: 0.06,
+            prior_weight: 0.002,
+            gauss_newton_steps: 1,
+            max_final_iterations: 12,
+            stray_distance: 0.06,
+        }
+    }
+}
+
+impl PoseOptions {
+    /// The method as published: softassign with outlier row and column, beta raised by a
+    /// fixed step, all bones, raw strokes (only resampled to the model's spacing).
+    pub fn paper() -> Self {
+        Self {
+            beautify: false,
+            rigid_init: false,
+            chain_assignment: false,
+            additive_beta: true,
+            ..Self::default()
+        }
+    }
+}
+
+/// Why strokes cannot be used.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PoseError {
+    #[error("no strokes")]
+    NoStrokes,
+    #[error("strokes[{stroke}]: a stroke needs at least 2 points")]
+    StrokeTooShort { stroke: usize },
+    #[error("strokes[{stroke}].points[{point}]: coordinate is not a finite number")]
+    NonFinite { stroke: usize, point: usize },
+    #[error("strokes[{stroke}].bones: unknown bone '{name}'")]
+    UnknownStrokeBone { stroke: usize, name: String },
+    #[error("unknown bone '{name}' in the list of bones that may move")]
+    UnknownBone { name: String },
+    #[error("the rig has no bones to align (no joint with a child at a distance)")]
+    NoBones,
+    #[error("none of the chosen bones can move")]
+    NothingMoves,
+}
+
+/// What the solver found.
+#[derive(Clone, Debug)]
+pub struct PoseResult {
+    pub pose: Pose,
+    /// For each input stroke, the joints (bones, named by the joint that turns them) it was
+    /// matched to, in order along the stroke; empty for a stroke set aside as a stray.
+    pub stroke_bones: Vec<Vec<usize>>,
+    /// Match-and-align iterations run.
+    pub iterations: usize,
+    /// The final energy of eq. (1) (squared distances in the rig's units).
+    pub energy: f64,
+}
+
+/// The posing problem: a skeleton, the pose to start from, strokes, and which joints may
+/// move.
+#[derive(Clone, Debug)]
+pub struct PoseProblem<'a> {
+    pub skeleton: &'a Skeleton,
+    pub start: &'a Pose,
+    pub strokes: &'a [Stroke],
+    /// Names of the joints that may move (`--bones`); all when `None`.
+    pub movable: Option<&'a [String]>,
+    /// The character's height (lengths in the options are fractions of it).
+    pub height: f64,
+}
+
+/// The state of one solve.
+struct Solver<'a> {
+    skeleton: &'a Skeleton,
+    start: &'a Pose,
+    options: &'a PoseOptions,
+    height: f64,
+    model: BoneModel,
+    /// Stroke samples and the stroke each belongs to.
+    data: Vec<Point3>,
+    data_stroke: Vec<usize>,
+    /// Per stroke: the bones it may match (`None` = any).
+    stroke_allowed: Vec<Option<Vec<bool>>>,
+    /// Joints allowed to move at all.
+    movable: Vec<bool>,
+    pose: Pose,
+    iterations: usize,
+}
+
+/// Poses `problem.skeleton` so its bones lie along the strokes.
+pub fn solve_pose(problem: &PoseProblem, options: &PoseOptions) -> Result<PoseResult, PoseError> {
+    let skeleton = problem.skeleton;
+    if problem.strokes.is_empty() {
+        return Err(PoseError::NoStrokes);
+    }
+    for (s, stroke) in problem.strokes.iter().enumerate() {
+        if stroke.points.len() < 2 {
+            return Err(PoseError::StrokeTooShort { stroke: s });
+        }
+        if let Some(point) = stroke
+            .points
+            .iter()
+            .position(|p| !p.iter().all(|v| v.is_finite()))
+        {
+            return Err(PoseError::NonFinite { stroke: s, point });
+        }
+    }
+    let height = if problem.height > 0.0 {
+        problem.height
+    } else {
+        1.0
+    };
+    let spacing = options.spacing * height;
+    let model = BoneModel::new(skeleton, problem.start, spacing, 1e-4 * height);
+    if model.bones.is_empty() {
+        return Err(PoseError::NoBones);
+    }
+    let mut movable: Vec<bool> = skeleton
+        .joints()
+        .iter()
+        .map(|j| j.dof != JointDof::Fixed)
+        .collect();
+    if let Some(names) = problem.movable {
+        let mut chosen = vec![false; skeleton.len()];
+        for name in names {
+            let j = skeleton
+                .find(name)
+                .ok_or_else(|| PoseError::UnknownBone { name: name.clone() })?;
+            chosen[j] = true;
+        }
+        for (m, c) in movable.iter_mut().zip(chosen) {
+            *m &= c;
+        }
+        if !movable.iter().any(|&m| m) {
+            return Err(PoseError::NothingMoves);
+        }
+    }
+    let mut stroke_allowed = Vec::with_capacity(problem.strokes.len());
+    let mut data = Vec::new();
+    let mut data_stroke = Vec::new();
+    for (s, stroke) in problem.strokes.iter().enumerate() {
+        let samples = if options.beautify {
+            beautify::beautify(&stroke.points, spacing)
+        } else {
+            beautify::resample(&stroke.points, spacing)
+        };
+        data_stroke.extend(std::iter::repeat_n(s, samples.len()));
+        data.extend(samples);
+        stroke_allowed.push(match &stroke.bones {
+            None => None,
+            Some(names) => {
+                let mut allowed = vec![false; model.bones.len()];
+                for name in names {
+                    let j = skeleton
+                        .find(name)
+                        .ok_or_else(|| PoseError::UnknownStrokeBone {
+                            stroke: s,
+                            name: name.clone(),
+                        })?;
+                    for (b, bone) in model.bones.iter().enumerate() {
+                        if bone.joint == j {
+                            allowed[b] = true;
+                        }
+                    }
+                }
+                Some(allowed)
+            }
+        });
+    }
+    let mut solver = Solver {
+        skeleton,
+        start: problem.start,
+        options,
+        height,
+        model,
+        data,
+        data_stroke,
+        stroke_allowed,
+        movable,
+        pose: problem.start.clone(),
+        iterations: 0,
+    };
+    solver.run()
+}
+
+impl Solver<'_> {
+    fn run(&mut self) -> Result<PoseResult, PoseError> {
+        let opts = self.options;
+        let root = self
+            .skeleton
+            .skin_root()
+            .filter(|&r| self.movable[r] && self.skeleton.joint(r).dof == JointDof::Free);
+        if opts.rigid_init {
+            if let Some(root) = root {
+                self.rigid_init(root);
+            }
+        }
+        let all = self.layout(&self.movable.clone());
+        let sigmas = self.schedule(
+            opts.sigma_start,
+            opts.sigma_end,
+            opts.anneal_steps,
+            opts.additive_beta,
+        );
+        let mut matches = self.anneal(&all, &sigmas, None);
+        let mut stroke_bones: Vec<Vec<usize>>;
+        if opts.chain_assignment {
+            let assignment = chains::assign(self);
+            // Joints with no assigned bone below them go back to their start pose and stay.
+            let mut explained = vec![false; self.skeleton.len()];
+            for chain in assignment.iter().flatten() {
+                for &b in chain {
+                    explained[self.model.bones[b].joint] = true;
+                }
+            }
+            for j in (0..self.skeleton.len()).rev() {
+                if explained[j] {
+                    if let Some(p) = self.skeleton.joint(j).parent {
+                        explained[p] = true;
+                    }
+                }
+            }
+            let mut movable = self.movable.clone();
+            for j in 0..self.skeleton.len() {
+                if !explained[j] && Some(j) != root {
+                    self.pose.local[j].rotation = self.start.local[j].rotation;
+                    movable[j] = false;
+                }
+            }
+            let mut allowed_bones: Vec<Option<Vec<bool>>> = Vec::with_capacity(assignment.len());
+            for chain in &assignment {
+                let mut a = vec![false; self.model.bones.len()];
+                for &b in chain.iter().flatten() {
+                    a[b] = true;
+                }
+                allowed_bones.push(Some(a));
+            }
+            let layout = self.layout(&movable);
+            let last = *sigmas.last().unwrap_or(&opts.sigma_end);
+            let refine = self.schedule(
+                opts.sigma_start.min(4.0 * last),
+                last,
+                opts.anneal_steps / 2,
+                false,
+            );
+            matches = self.anneal(&layout, &refine, Some(&allowed_bones));
+            matches = self.settle(&layout, matches, last, Some(&allowed_bones));
+            stroke_bones = assignment
+                .iter()
+                .map(|c| {
+                    c.as_ref()
+                        .map(|c| c.iter().map(|&b| self.model.bones[b].joint).collect())
+                        .unwrap_or_default()
+                })
+                .collect();
+        } else {
+            let last = *sigmas.last().unwrap_or(&opts.sigma_end);
+            matches = self.settle(&all, matches, last, None);
+            stroke_bones = self.bones_by_weight(&matches);
+        }
+        for b in &mut stroke_bones {
+            b.dedup();
+        }
+        let energy = self.energy(&matches);
+        Ok(PoseResult {
+            pose: self.pose.clone(),
+            stroke_bones,
+            iterations: self.iterations,
+            energy,
+        })
+    }
+
+    /// The DOF layout over movable joints that can influence some model point.
+    fn layout(&self, movable: &[bool]) -> DofLayout {
+        let mut influences = vec![false; self.skeleton.len()];
+        for p in &self.model.points {
+            let mut cur = Some(p.joint);
+            while let Some(j) = cur {
+                if influences[j] {
+                    break;
+                }
+                influences[j] = true;
+                cur = self.skeleton.joint(j).parent;
+            }
+        }
+        let active: Vec<bool> = movable
+            .iter()
+            .zip(&influences)
+            .map(|(m, i)| *m && *i)
+            .collect();
+        DofLayout::with_active(self.skeleton, &active)
+    }
+
+    /// Match scales from `from` to `to` over `steps` (geometric in beta, or additive).
+    fn schedule(&self, from: f64, to: f64, steps: usize, additive: bool) -> Vec<f64> {
+        let steps = steps.max(2);
+        let (b0, b1) = (1.0 / (from * from), 1.0 / (to * to));
+        (0..steps)
+            .map(|s| {
+                let t = s as f64 / (steps - 1) as f64;
+                let beta = if additive {
+                    b0 + (b1 - b0) * t
+                } else {
+                    b0 * (b1 / b0).powf(t)
+                };
+                self.height / beta.sqrt()
+            })
+            .collect()
+    }
+
+    fn softassign_at(
+        &self,
+        world: &[Point3],
+        sigma: f64,
+        allowed: Option<&[Option<Vec<bool>>]>,
+    ) -> MatchMatrix {
+        let zeta = (self.options.outlier_distance * self.height).powi(2);
+        let params = SoftassignParams {
+            beta: 1.0 / (sigma * sigma),
+            zeta,
+            sinkhorn_iterations: 30,
+            sinkhorn_tolerance: 1e-3,
+        };
+        let pinned = &self.stroke_allowed;
+        let model = &self.model;
+        let data_stroke = &self.data_stroke;
+        softassign(world, &self.data, &params, |k, i| {
+            let s = data_stroke[i];
+            let b = model.points[k].bone;
+            let ok_pin = pinned[s].as_ref().is_none_or(|a| a[b]);
+            let ok_chain = allowed.is_none_or(|a| a[s].as_ref().is_none_or(|a| a[b]));
+            ok_pin && ok_chain
+        })
+    }
+
+    /// One annealing pass: for each scale, match then align.
+    fn anneal(
+        &mut self,
+        layout: &DofLayout,
+        sigmas: &[f64],
+        allowed: Option<&[Option<Vec<bool>>]>,
+    ) -> MatchMatrix {
+        let mut matches = MatchMatrix::default();
+        for &sigma in sigmas {
+            let fk = ForwardKinematics::new(self.skeleton, &self.pose);
+            let world = self.model.world_points(&fk);
+            matches = self.softassign_at(&world, sigma, allowed);
+            for _ in 0..self.options.gauss_newton_steps {
+                self.align(layout, &matches);
+            }
+            self.iterations += 1;
+        }
+        matches
+    }
+
+    /// Iterates at the final scale until the match stops changing.
+    fn settle(
+        &mut self,
+        layout: &DofLayout,
+        mut matches: MatchMatrix,
+        sigma: f64,
+        allowed: Option<&[Option<Vec<bool>>]>,
+    ) -> MatchMatrix {
+        for _ in 0..self.options.max_final_iterations {
+            self.align(layout, &matches);
+            self.iterations += 1;
+            let fk = ForwardKinematics::new(self.skeleton, &self.pose);
+            let world = self.model.world_points(&fk);
+            let next = self.softassign_at(&world, sigma, allowed);
+            let change = next.change_from(&matches);
+            matches = next;
+            if change < 1e-3 {
+                break;
+            }
+        }
+        matches
+    }
+
+    /// One Levenberg-Marquardt step on eq. (1) with `omega` fixed: each model point pulled
+    /// to the weighted mean of its matches (Dewaele eq. 20 form), plus `Phi(p)`.
+    fn align(&mut self, layout: &DofLayout, matches: &MatchMatrix) {
+        if layout.is_empty() {
+            return;
+        }
+        let h2 = self.height * self.height;
+        let build = |pose: &Pose| -> NormalEquations {
+            let fk = ForwardKinematics::new(self.skeleton, pose);
+            let mut ne = NormalEquations::new(layout.len());
+            let mut cols = Vec::with_capacity(64);
+            for (k, mp) in self.model.points.iter().enumerate() {
+                let Some((target, w)) = matches.target(k, &self.data) else {
+                    continue;
+                };
+                let p = fk.point(mp.joint, &mp.local);
+                cols.clear();
+                fk.point_jacobian(layout, mp.joint, &p, |c, v| cols.push((c, v)));
+                ne.add_point(&((p - target) / self.height), w, &cols);
+            }
+            // Phi(p): rotation vectors away from the start pose, per joint and axis.
+            let prior = self.options.prior_weight;
+            for j in 0..self.skeleton.len() {
+                let Some(o) = layout.offset(j) else { continue };
+                let delta =
+                    (self.start.local[j].rotation.inverse() * pose.local[j].rotation).scaled_axis();
+                match layout.dof(j) {
+                    JointDof::Ball => {
+                        (0..3).for_each(|a| ne.add_scalar(delta[a], prior, o + a, 1.0))
+                    }
+                    JointDof::Hinge { axis } => {
+                        ne.add_scalar(delta.dot(&axis.normalize()), prior, o, 1.0)
+                    }
+                    _ => {}
+                }
+                if let Some(lim) = &self.skeleton.joint(j).limits {
+                    let rest = (self.skeleton.joint(j).rest.rotation.inverse()
+                        * pose.local[j].rotation)
+                        .scaled_axis();
+                    for a in 0..3 {
+                        let excess =
+                            (rest[a] - lim.max[a]).max(0.0) + (rest[a] - lim.min[a]).min(0.0);
+                        if excess != 0.0 && layout.dof(j) == JointDof::Ball {
+                            ne.add_scalar(excess, 100.0, o + a, 1.0);
+                        }
+                    }
+                }
+            }
+            let _ = h2;
+            ne
+        };
+        let ne = build(&self.pose);
+        let mut lambda = 1e-3;
+        for _ in 0..6 {
+            let Some(step) = ne.solve(lambda) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let mut trial = self.pose.clone();
+            layout.apply(&mut trial, step.as_slice());
+            if build(&trial).cost <= ne.cost {
+                self.pose = trial;
+                return;
+            }
+            lambda *= 10.0;
+        }
+    }
+
+    /// Eq. (1) at the current pose: `sum omega |y - v|^2 - zeta sum omega`.
+    fn energy(&self, matches: &MatchMatrix) -> f64 {
+        let fk = ForwardKinematics::new(self.skeleton, &self.pose);
+        let world = self.model.world_points(&fk);
+        let zeta = (self.options.outlier_distance * self.height).powi(2);
+        let mut e = 0.0;
+        for k in 0..matches.rows() {
+            for &(i, w) in matches.row(k) {
+                e += w * ((self.data[i as usize] - world[k]).norm_squared() - zeta);
+            }
+        }
+        e
+    }
+
+    /// For each stroke, the bones that took a good share of its points, in stroke order.
+    fn bones_by_weight(&self, matches: &MatchMatrix) -> Vec<Vec<usize>> {
+        let strokes = self.stroke_allowed.len();
+        // For each data point, its best bone.
+        let mut best = vec![(0.0, usize::MAX); self.data.len()];
+        for k in 0..matches.rows() {
+            let b = self.model.points[k].bone;
+            for &(i, w) in matches.row(k) {
+                if w > best[i as usize].0 {
+                    best[i as usize] = (w, b);
+                }
+            }
+        }
+        let mut out = vec![Vec::new(); strokes];
+        for (i, &(w, b)) in best.iter().enumerate() {
+            if w > 0.2 && b != usize::MAX {
+                let joint = self.model.bones[b].joint;
+                let list = &mut out[self.data_stroke[i]];
+                if list.last() != Some(&joint) && !list.contains(&joint) {
+                    list.push(joint);
+                }
+            }
+        }
+        out
+    }
+
+    /// Rigid alignment of the whole character from several headings about the vertical
+    /// axis; keeps the one whose strokes are best explained.
+    fn rigid_init(&mut self, root: usize) {
+        let mut only_root = vec![false; self.skeleton.len()];
+        only_root[root] = true;
+        let layout = DofLayout::with_active(self.skeleton, &only_root);
+        let data_centre = centroid(&self.data);
+        let mut best: Option<(f64, Pose)> = None;
+        let sigmas = self.schedule(0.3, 0.05, 8, false);
+        for heading in 0..4 {
+            let angle = heading as f64 * std::f64::consts::FRAC_PI_2;
+            self.pose = self.start.clone();
+            let fk = ForwardKinematics::new(self.skeleton, &self.pose);
+            let model_centre = centroid(&self.model.world_points(&fk));
+            // Turn about the vertical through the model's centre, then move onto the strokes.
+            let turn = Trs::new(
+                Vector3::zeros(),
+                Quat::from_axis_angle(&Vector3::y_axis(), angle),
+            )
+            .to_matrix();
+            let world_root = Matrix4::new_translation(&(data_centre - model_centre))
+                * Matrix4::new_translation(&model_centre)
+                * turn
+                * Matrix4::new_translation(&-model_centre)
+                * fk.world(root);
+            let parent = self
+                .skeleton
+                .joint(root)
+                .parent
+                .map(|p| *fk.world(p))
+                .unwrap_or_else(Matrix4::identity);
+            let local = parent.try_inverse().unwrap_or_else(Matrix4::identity) * world_root;
+            let trs = Trs::from_matrix(&local);
+            self.pose.local[root].translation = trs.translation;
+            self.pose.local[root].rotation = trs.rotation;
+            self.anneal(&layout, &sigmas, None);
+            let score = self.truncated_chamfer();
+            if best.as_ref().is_none_or(|(s, _)| score < *s) {
+                best = Some((score, self.pose.clone()));
+            }
+        }
+        if let Some((_, pose)) = best {
+            self.pose = pose;
+        }
+    }
+
+    /// Mean over stroke samples of the squared distance to the nearest model point, capped
+    /// at the outlier distance: how well the strokes are explained.
+    fn truncated_chamfer(&self) -> f64 {
+        let fk = ForwardKinematics::new(self.skeleton, &self.pose);
+        let world = self.model.world_points(&fk);
+        let cap = (self.options.outlier_distance * self.height * 3.0).powi(2);
+        self.data
+            .iter()
+            .map(|y| {
+                world
+                    .iter()
+                    .map(|v| (y - v).norm_squared())
+                    .fold(cap, f64::min)
+            })
+            .sum::<f64>()
+            / self.data.len().max(1) as f64
+    }
+}
+
+fn centroid(points: &[Point3]) -> Vector3 {
+    let sum: Vector3 = points.iter().map(|p| p.coords).sum();
+    sum / points.len().max(1) as f64
+}
+
+/// World position of a joint for a pose (a convenience for reports and tests).
+pub fn joint_world_position(skeleton: &Skeleton, pose: &Pose, joint: usize) -> Point3 {
+    Point3::from(translation_part(&skeleton.world_matrices(pose)[joint]))
+}
