@@ -32,7 +32,7 @@ impl Default for CaseOptions {
         Self {
             noise: 0.01,
             sample_spacing: 0.004,
-            min_chain_length: 0.05,
+            min_chain_length: 0.1,
             drop_limbs: 0,
             stray_strokes: 0,
         }

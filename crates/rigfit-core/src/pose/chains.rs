@@ -1,7 +1,9 @@
 //! The chain step: a stroke is an ordered polyline, so it covers one connected chain of
 //! bones in order. Each stroke gets the chain (and direction) whose arclength-matched points
-//! lie closest to it at the current pose; strokes that share no bones are assigned greedily,
-//! best first; a stroke no chain explains is a stray.
+//! lie closest to it at the current pose and whose length is closest to the stroke's;
+//! strokes that share no bones are assigned greedily, best first. Points along an assigned
+//! chain are then pulled to the stroke point at the same fraction of arclength, which has no
+//! local minima of the kind nearest-point matching falls into.
 
 use super::Solver;
 use crate::kinematics::ForwardKinematics;
@@ -9,16 +11,16 @@ use crate::math::Point3;
 
 /// Samples compared per stroke and chain.
 const SAMPLES: usize = 24;
-/// Longest chain one stroke may cover, in bones.
-const MAX_CHAIN: usize = 12;
+/// Weight of the relative length mismatch against the mean squared distance (in heights).
+const LENGTH_WEIGHT: f64 = 0.1;
 
 /// The point at normalised arclength `u` of a polyline with cumulative lengths `cum`.
-fn at(line: &[Point3], cum: &[f64], u: f64) -> Point3 {
+pub(super) fn at(line: &[Point3], cum: &[f64], u: f64) -> Point3 {
     let total = *cum.last().unwrap_or(&0.0);
     if total <= 0.0 || line.len() < 2 {
         return line[0];
     }
-    let target = u * total;
+    let target = u.clamp(0.0, 1.0) * total;
     let seg = cum
         .partition_point(|&c| c < target)
         .clamp(1, line.len() - 1)
@@ -28,7 +30,7 @@ fn at(line: &[Point3], cum: &[f64], u: f64) -> Point3 {
     line[seg] + (line[seg + 1] - line[seg]) * t
 }
 
-fn cumulative(line: &[Point3]) -> Vec<f64> {
+pub(super) fn cumulative(line: &[Point3]) -> Vec<f64> {
     let mut c = Vec::with_capacity(line.len());
     let mut acc = 0.0;
     c.push(0.0);
@@ -39,59 +41,75 @@ fn cumulative(line: &[Point3]) -> Vec<f64> {
     c
 }
 
-/// For each stroke, its chain of bones in stroke order, or `None` for a stray.
-pub(super) fn assign(solver: &Solver) -> Vec<Option<Vec<usize>>> {
+/// The samples of stroke `s`, in order.
+pub(super) fn stroke_points(solver: &Solver, s: usize) -> Vec<Point3> {
+    solver
+        .data
+        .iter()
+        .zip(&solver.data_stroke)
+        .filter(|(_, d)| **d == s)
+        .map(|(p, _)| *p)
+        .collect()
+}
+
+/// A stroke's chain: bones from the chain's root end to its tip, and whether the stroke was
+/// drawn tip first.
+pub(super) type Assignment = Option<(Vec<usize>, bool)>;
+
+/// For each stroke not `excluded`, its chain (`None` when no free chain is left for it).
+pub(super) fn assign(solver: &Solver, chains: &[Vec<usize>], excluded: &[bool]) -> Vec<Assignment> {
     let model = &solver.model;
+    let h = solver.height;
     let fk = ForwardKinematics::new(solver.skeleton, &solver.pose);
-    let chains = model.chains(MAX_CHAIN);
-    let lines: Vec<(Vec<Point3>, Vec<f64>)> = chains
+    let lines: Vec<(Vec<Point3>, Vec<f64>, f64)> = chains
         .iter()
         .map(|c| {
             let l = model.chain_polyline(c, &fk);
             let cum = cumulative(&l);
-            (l, cum)
+            let len: f64 = c.iter().map(|&b| model.bones[b].length).sum();
+            (l, cum, len)
         })
         .collect();
     let strokes = solver.stroke_allowed.len();
-    // Candidates per stroke: (mean squared distance, chain index, reversed), best first.
-    let mut candidates: Vec<Vec<(f64, usize, bool)>> = Vec::with_capacity(strokes);
-    for s in 0..strokes {
-        let stroke: Vec<Point3> = solver
-            .data
-            .iter()
-            .zip(&solver.data_stroke)
-            .filter(|(_, d)| **d == s)
-            .map(|(p, _)| *p)
-            .collect();
+    // Candidates per stroke: (cost, chain index, reversed), best first.
+    let mut candidates: Vec<Vec<(f64, usize, bool)>> = vec![Vec::new(); strokes];
+    for s in (0..strokes).filter(|&s| !excluded[s]) {
+        let stroke = stroke_points(solver, s);
         let scum = cumulative(&stroke);
+        let stroke_len = *scum.last().unwrap_or(&0.0);
         let ys: Vec<Point3> = (0..SAMPLES)
             .map(|i| at(&stroke, &scum, i as f64 / (SAMPLES - 1) as f64))
             .collect();
-        let mut list = Vec::new();
+        let list = &mut candidates[s];
         for (c, chain) in chains.iter().enumerate() {
             if let Some(allowed) = &solver.stroke_allowed[s] {
                 if chain.iter().any(|&b| !allowed[b]) {
                     continue;
                 }
             }
-            let (line, cum) = &lines[c];
+            let (line, cum, len) = &lines[c];
+            let length_term = LENGTH_WEIGHT * ((stroke_len - len) / len.max(1e-12)).powi(2);
             for reversed in [false, true] {
+                // Where a chain attaches moves little with the pose; its tip moves most: the
+                // comparison weighs the attached end more.
                 let mut cost = 0.0;
+                let mut weights = 0.0;
                 for (i, y) in ys.iter().enumerate() {
                     let u = i as f64 / (SAMPLES - 1) as f64;
-                    let x = at(line, cum, if reversed { 1.0 - u } else { u });
-                    cost += (y - x).norm_squared();
+                    let along = if reversed { 1.0 - u } else { u };
+                    let x = at(line, cum, along);
+                    let w = 1.2 - along;
+                    cost += w * (y - x).norm_squared();
+                    weights += w;
                 }
-                list.push((cost / SAMPLES as f64, c, reversed));
+                list.push((cost / weights / (h * h) + length_term, c, reversed));
             }
         }
         list.sort_by(|a, b| a.0.total_cmp(&b.0));
-        candidates.push(list);
     }
-    let stray2 = (solver.options.stray_distance * solver.height).powi(2);
     let mut used = vec![false; model.bones.len()];
-    let mut result: Vec<Option<Vec<usize>>> = vec![None; strokes];
-    let mut done = vec![false; strokes];
+    let mut result: Vec<Assignment> = vec![None; strokes];
+    let mut done: Vec<bool> = excluded.to_vec();
     loop {
         // The unassigned stroke whose best still-free chain fits best.
         let mut pick: Option<(f64, usize, usize, bool)> = None;
@@ -102,29 +120,109 @@ pub(super) fn assign(solver: &Solver) -> Vec<Option<Vec<usize>>> {
             let free = candidates[s]
                 .iter()
                 .find(|&&(_, c, _)| chains[c].iter().all(|&b| !used[b]));
-            if let Some(&(cost, c, rev)) = free {
-                if pick.is_none_or(|p| cost < p.0) {
-                    pick = Some((cost, s, c, rev));
+            match free {
+                Some(&(cost, c, rev)) if pick.is_none_or(|p| cost < p.0) => {
+                    pick = Some((cost, s, c, rev))
                 }
-            } else {
-                done[s] = true;
+                Some(_) => {}
+                None => done[s] = true,
             }
         }
-        let Some((cost, s, c, reversed)) = pick else {
+        let Some((_, s, c, reversed)) = pick else {
             break;
         };
         done[s] = true;
-        if cost > stray2 {
-            continue; // a stray: explained by no chain
-        }
         for &b in &chains[c] {
             used[b] = true;
         }
-        let mut bones = chains[c].clone();
-        if reversed {
-            bones.reverse();
-        }
-        result[s] = Some(bones);
+        result[s] = Some((chains[c].clone(), reversed));
     }
     result
+}
+
+/// The arclength of stroke `s` (after resampling).
+pub(super) fn stroke_length(solver: &Solver, s: usize) -> f64 {
+    *cumulative(&stroke_points(solver, s)).last().unwrap_or(&0.0)
+}
+
+/// Whether stroke `s` runs along `chain` tip first (the direction whose arclength-matched
+/// points lie closer at the current pose).
+pub(super) fn better_direction(solver: &Solver, s: usize, chain: &[usize]) -> bool {
+    let fk = ForwardKinematics::new(solver.skeleton, &solver.pose);
+    let line = solver.model.chain_polyline(chain, &fk);
+    let stroke = stroke_points(solver, s);
+    let (lcum, scum) = (cumulative(&line), cumulative(&stroke));
+    let cost = |reversed: bool| -> f64 {
+        (0..SAMPLES)
+            .map(|i| {
+                let u = i as f64 / (SAMPLES - 1) as f64;
+                (at(&stroke, &scum, u) - at(&line, &lcum, if reversed { 1.0 - u } else { u }))
+                    .norm_squared()
+            })
+            .sum()
+    };
+    cost(true) < cost(false)
+}
+
+/// RMS distance (in heights) of each assigned stroke's points to the chain at the same
+/// fraction of arclength, at the current pose.
+pub(super) fn stroke_residuals(solver: &Solver, assignment: &[Assignment]) -> Vec<f64> {
+    let fk = ForwardKinematics::new(solver.skeleton, &solver.pose);
+    assignment
+        .iter()
+        .enumerate()
+        .map(|(s, a)| {
+            let Some((chain, reversed)) = a else {
+                return 0.0;
+            };
+            let mut stroke = stroke_points(solver, s);
+            if *reversed {
+                stroke.reverse();
+            }
+            let line = solver.model.chain_polyline(chain, &fk);
+            let (scum, lcum) = (cumulative(&stroke), cumulative(&line));
+            let sum: f64 = (0..SAMPLES)
+                .map(|i| {
+                    let u = i as f64 / (SAMPLES - 1) as f64;
+                    (at(&stroke, &scum, u) - at(&line, &lcum, u)).norm_squared()
+                })
+                .sum();
+            (sum / SAMPLES as f64).sqrt() / solver.height
+        })
+        .collect()
+}
+
+/// For each model point on an assigned chain, the stroke point at the same fraction of
+/// arclength (bone lengths give the model's fractions), with weight 1.
+pub(super) fn arclength_targets(
+    solver: &Solver,
+    assignment: &[Assignment],
+) -> Vec<Option<(Point3, f64)>> {
+    let model = &solver.model;
+    let mut targets = vec![None; model.points.len()];
+    for (s, chain) in assignment.iter().enumerate() {
+        let Some((chain, reversed)) = chain else {
+            continue;
+        };
+        let mut stroke = stroke_points(solver, s);
+        if *reversed {
+            stroke.reverse();
+        }
+        let cum = cumulative(&stroke);
+        // The stroke now runs from the chain's root end to its tip.
+        let total: f64 = chain.iter().map(|&b| model.bones[b].length).sum();
+        let mut before = 0.0;
+        for &b in chain {
+            let bone = &model.bones[b];
+            let range = model.bone_points[b].clone();
+            let n = range.len() as f64;
+            for (idx, k) in range.enumerate() {
+                let t = (idx as f64 + 0.5) / n;
+                let u = (before + t * bone.length) / total.max(1e-12);
+                targets[k] = Some((at(&stroke, &cum, u), 1.0));
+            }
+            before += bone.length;
+        }
+    }
+    targets
 }

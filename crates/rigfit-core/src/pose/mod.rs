@@ -18,6 +18,13 @@ use crate::strokes::Stroke;
 
 pub use bones::BoneModel;
 
+/// Weight of the mean squared joint rotation (radians) against the mean squared stroke
+/// residual (heights) when choosing among heading hypotheses.
+const HYPOTHESIS_BEND_WEIGHT: f64 = 2e-3;
+
+/// The longest chain of bones one stroke may cover.
+const MAX_CHAIN_BONES: usize = 12;
+
 /// How the solver runs. [`PoseOptions::paper`] is the method as published;
 /// [`PoseOptions::default`] adds rigfit's improvements. Lengths are fractions of the
 /// character's height.
@@ -148,6 +155,8 @@ struct Solver<'a> {
     movable: Vec<bool>,
     pose: Pose,
     iterations: usize,
+    /// The weight of `Phi(p)` in force (lowered for the final polish).
+    prior_weight: f64,
 }
 
 /// Poses `problem.skeleton` so its bones lie along the strokes.
@@ -242,6 +251,7 @@ pub fn solve_pose(problem: &PoseProblem, options: &PoseOptions) -> Result<PoseRe
         movable,
         pose: problem.start.clone(),
         iterations: 0,
+        prior_weight: options.prior_weight,
     };
     solver.run()
 }
@@ -253,11 +263,10 @@ impl Solver<'_> {
             .skeleton
             .skin_root()
             .filter(|&r| self.movable[r] && self.skeleton.joint(r).dof == JointDof::Free);
-        if opts.rigid_init {
-            if let Some(root) = root {
-                self.rigid_init(root);
-            }
-        }
+        let starts = match (opts.rigid_init, root) {
+            (true, Some(root)) => self.rigid_candidates(root),
+            _ => vec![self.start.clone()],
+        };
         let all = self.layout(&self.movable.clone());
         let sigmas = self.schedule(
             opts.sigma_start,
@@ -265,60 +274,68 @@ impl Solver<'_> {
             opts.anneal_steps,
             opts.additive_beta,
         );
-        let mut matches = self.anneal(&all, &sigmas, None);
+        let last = *sigmas.last().unwrap_or(&opts.sigma_end);
+        let matches;
         let mut stroke_bones: Vec<Vec<usize>>;
         if opts.chain_assignment {
-            let assignment = chains::assign(self);
-            // Joints with no assigned bone below them go back to their start pose and stay.
-            let mut explained = vec![false; self.skeleton.len()];
-            for chain in assignment.iter().flatten() {
-                for &b in chain {
-                    explained[self.model.bones[b].joint] = true;
+            // Every heading hypothesis goes through the whole chain fit; the one whose strokes
+            // are best explained wins (a mirrored body fits its strokes visibly worse).
+            let chains = self.model.chains(MAX_CHAIN_BONES);
+            let mut best: Option<(f64, Pose, Vec<chains::Assignment>, DofLayout)> = None;
+            let forced: Option<usize> = std::env::var("RIGFIT_DEBUG_HYP")
+                .ok()
+                .and_then(|v| v.parse().ok());
+            for (h, start) in starts.into_iter().enumerate() {
+                if forced.is_some_and(|f| f != h) {
+                    continue;
+                }
+                self.pose = start;
+                if std::env::var_os("RIGFIT_NO_ANNEAL").is_none() {
+                    self.anneal(&all, &sigmas, None);
+                }
+                let (assignment, layout, score) = self.fit_chains(&chains, root);
+                if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
+                    eprintln!("hypothesis: score {score:.6} assignment {assignment:?}");
+                }
+                if best.as_ref().is_none_or(|b| score < b.0) {
+                    best = Some((score, self.pose.clone(), assignment, layout));
                 }
             }
-            for j in (0..self.skeleton.len()).rev() {
-                if explained[j] {
-                    if let Some(p) = self.skeleton.joint(j).parent {
-                        explained[p] = true;
-                    }
-                }
-            }
-            let mut movable = self.movable.clone();
-            for j in 0..self.skeleton.len() {
-                if !explained[j] && Some(j) != root {
-                    self.pose.local[j].rotation = self.start.local[j].rotation;
-                    movable[j] = false;
-                }
-            }
-            let mut allowed_bones: Vec<Option<Vec<bool>>> = Vec::with_capacity(assignment.len());
-            for chain in &assignment {
-                let mut a = vec![false; self.model.bones.len()];
-                for &b in chain.iter().flatten() {
-                    a[b] = true;
-                }
-                allowed_bones.push(Some(a));
-            }
-            let layout = self.layout(&movable);
-            let last = *sigmas.last().unwrap_or(&opts.sigma_end);
-            let refine = self.schedule(
-                opts.sigma_start.min(4.0 * last),
-                last,
-                opts.anneal_steps / 2,
-                false,
-            );
-            matches = self.anneal(&layout, &refine, Some(&allowed_bones));
-            matches = self.settle(&layout, matches, last, Some(&allowed_bones));
-            stroke_bones = assignment
+            let (_, pose, assignment, layout) = best.expect("at least one start");
+            self.pose = pose;
+            let allowed_bones: Vec<Option<Vec<bool>>> = assignment
                 .iter()
                 .map(|c| {
-                    c.as_ref()
-                        .map(|c| c.iter().map(|&b| self.model.bones[b].joint).collect())
-                        .unwrap_or_default()
+                    let mut a = vec![false; self.model.bones.len()];
+                    for &b in c.iter().flat_map(|c| &c.0) {
+                        a[b] = true;
+                    }
+                    Some(a)
+                })
+                .collect();
+            // With every stroke's chain known, the start-pose prior has done its job (keeping
+            // twists and choosing among mirror images); the polish lets short bones follow
+            // their strokes.
+            self.prior_weight = opts.prior_weight * 0.05;
+            matches = self.settle(&layout, last, Some(&allowed_bones));
+            stroke_bones = assignment
+                .iter()
+                .map(|c| match c {
+                    Some((chain, reversed)) => {
+                        let mut joints: Vec<usize> =
+                            chain.iter().map(|&b| self.model.bones[b].joint).collect();
+                        if *reversed {
+                            joints.reverse();
+                        }
+                        joints
+                    }
+                    None => Vec::new(),
                 })
                 .collect();
         } else {
-            let last = *sigmas.last().unwrap_or(&opts.sigma_end);
-            matches = self.settle(&all, matches, last, None);
+            self.pose = starts.into_iter().next().expect("at least one start");
+            self.anneal(&all, &sigmas, None);
+            matches = self.settle(&all, last, None);
             stroke_bones = self.bones_by_weight(&matches);
         }
         for b in &mut stroke_bones {
@@ -331,6 +348,219 @@ impl Solver<'_> {
             iterations: self.iterations,
             energy,
         })
+    }
+
+    /// The chain step from the current pose: assign chains, fit by arclength, set strays
+    /// aside, re-assign until stable. Returns the assignment, the layout of joints that may
+    /// move, and a score (mean squared stroke residual, strays counted at the stray
+    /// distance).
+    fn fit_chains(
+        &mut self,
+        chains: &[Vec<usize>],
+        root: Option<usize>,
+    ) -> (Vec<chains::Assignment>, DofLayout, f64) {
+        let strokes = self.stroke_allowed.len();
+        let stray = self.options.stray_distance;
+        let initial = self.pose.clone();
+        let mut excluded = vec![false; strokes];
+        let mut assignment = chains::assign(self, chains, &excluded);
+        let mut layout = self.layout(&self.movable.clone());
+        for _round in 0..8 {
+            layout = self.keep_unexplained_at_start(&assignment, root);
+            self.fit_arclength(&layout, &assignment);
+            let again = chains::assign(self, chains, &excluded);
+            if again != assignment {
+                assignment = again;
+                continue;
+            }
+            // The assignment is stable. A stroke that stays far from its chain is a stray:
+            // set it aside and start over without it.
+            let residuals = chains::stroke_residuals(self, &assignment);
+            if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
+                eprintln!("    stable residuals {residuals:.3?} {assignment:?}");
+            }
+            let worst = (0..strokes)
+                .filter(|&s| assignment[s].is_some())
+                .max_by(|&a, &b| residuals[a].total_cmp(&residuals[b]));
+            match worst.filter(|&s| residuals[s] > stray) {
+                Some(s) => {
+                    excluded[s] = true;
+                    self.pose = initial.clone();
+                    assignment = chains::assign(self, chains, &excluded);
+                }
+                None => break,
+            }
+        }
+        // Local search: swap the chains of two strokes of similar length (left and right
+        // limbs) when that explains the strokes better.
+        let mut score = self.chain_score(&assignment, &layout, root);
+        let bone_lengths: Vec<f64> = self.model.bones.iter().map(|b| b.length).collect();
+        let length = |c: &[usize]| c.iter().map(|&b| bone_lengths[b]).sum::<f64>();
+        for _pass in 0..2 {
+            let mut improved = false;
+            for s in 0..strokes {
+                for t in s + 1..strokes {
+                    let (Some((cs, _)), Some((ct, _))) = (&assignment[s], &assignment[t]) else {
+                        continue;
+                    };
+                    let (ls, lt) = (length(cs), length(ct));
+                    if (ls - lt).abs() > 0.25 * ls.max(lt) {
+                        continue;
+                    }
+                    let mut trial = assignment.clone();
+                    trial[s] = Some((ct.clone(), chains::better_direction(self, s, ct)));
+                    trial[t] = Some((cs.clone(), chains::better_direction(self, t, cs)));
+                    let saved = self.pose.clone();
+                    let trial_layout = self.keep_unexplained_at_start(&trial, root);
+                    self.fit_arclength(&trial_layout, &trial);
+                    let trial_score = self.chain_score(&trial, &trial_layout, root);
+                    if trial_score < score {
+                        assignment = trial;
+                        layout = trial_layout;
+                        score = trial_score;
+                        improved = true;
+                    } else {
+                        self.pose = saved;
+                    }
+                }
+            }
+            // Move a stroke to a free chain of similar length (the other side's limb when one
+            // limb is undrawn).
+            for s in 0..strokes {
+                let Some((current, _)) = assignment[s].clone() else {
+                    continue;
+                };
+                let mut used = vec![false; bone_lengths.len()];
+                for (t, a) in assignment.iter().enumerate() {
+                    if t != s {
+                        for &b in a.iter().flat_map(|a| &a.0) {
+                            used[b] = true;
+                        }
+                    }
+                }
+                // Candidates: a free chain of about the same length elsewhere, or the current
+                // chain grown or shrunk (a stroke that fits its chain only in part).
+                let lc = length(&current);
+                let stroke_length = chains::stroke_length(self, s);
+                let mut options: Vec<&Vec<usize>> = chains
+                    .iter()
+                    .filter(|c| **c != current && c.iter().all(|&b| !used[b]))
+                    .filter(|c| {
+                        c.iter().any(|b| current.contains(b)) || (length(c) - lc).abs() < 0.15 * lc
+                    })
+                    .collect();
+                options.sort_by(|a, b| {
+                    (length(a) - stroke_length)
+                        .abs()
+                        .total_cmp(&(length(b) - stroke_length).abs())
+                });
+                for c in options.into_iter().take(4) {
+                    let mut trial = assignment.clone();
+                    trial[s] = Some((c.clone(), chains::better_direction(self, s, c)));
+                    let saved = self.pose.clone();
+                    let trial_layout = self.keep_unexplained_at_start(&trial, root);
+                    self.fit_arclength(&trial_layout, &trial);
+                    let trial_score = self.chain_score(&trial, &trial_layout, root);
+                    if trial_score < score {
+                        assignment = trial;
+                        layout = trial_layout;
+                        score = trial_score;
+                        improved = true;
+                        break;
+                    }
+                    self.pose = saved;
+                }
+            }
+            if !improved {
+                break;
+            }
+        }
+        (assignment, layout, score)
+    }
+
+    /// How well a chain fit explains the strokes: the mean squared stroke residual (strays
+    /// counted at the stray distance) plus a small preference for bending less.
+    fn chain_score(
+        &self,
+        assignment: &[chains::Assignment],
+        layout: &DofLayout,
+        root: Option<usize>,
+    ) -> f64 {
+        let stray = self.options.stray_distance;
+        let strokes = assignment.len();
+        let residuals = chains::stroke_residuals(self, assignment);
+        let data = (0..strokes)
+            .map(|s| {
+                if assignment[s].is_some() {
+                    residuals[s].powi(2)
+                } else {
+                    stray * stray
+                }
+            })
+            .sum::<f64>()
+            / strokes.max(1) as f64;
+        // Strokes alone cannot always tell a body from its mirror image turned around (ball
+        // joints bend either way), so among fits that explain the strokes equally, the one
+        // that bends the joints least away from the start pose wins.
+        let moved: Vec<f64> = (0..self.skeleton.len())
+            .filter(|&j| Some(j) != root && layout.offset(j).is_some())
+            .map(|j| {
+                (self.start.local[j].rotation.inverse() * self.pose.local[j].rotation)
+                    .angle()
+                    .powi(2)
+            })
+            .collect();
+        let bend = moved.iter().sum::<f64>() / moved.len().max(1) as f64;
+        if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
+            eprintln!("  data {data:.6} bend {bend:.4}");
+        }
+        data + HYPOTHESIS_BEND_WEIGHT * bend
+    }
+
+    /// Puts joints with no assigned bone at or below them back to their start rotation and
+    /// holds them there; returns the layout of the joints that may still move.
+    fn keep_unexplained_at_start(
+        &mut self,
+        assignment: &[chains::Assignment],
+        root: Option<usize>,
+    ) -> DofLayout {
+        let mut explained = vec![false; self.skeleton.len()];
+        for (chain, _) in assignment.iter().flatten() {
+            for &b in chain {
+                explained[self.model.bones[b].joint] = true;
+            }
+        }
+        for j in (0..self.skeleton.len()).rev() {
+            if explained[j] {
+                if let Some(p) = self.skeleton.joint(j).parent {
+                    explained[p] = true;
+                }
+            }
+        }
+        let mut movable = self.movable.clone();
+        for j in 0..self.skeleton.len() {
+            if !explained[j] && Some(j) != root {
+                self.pose.local[j].rotation = self.start.local[j].rotation;
+                movable[j] = false;
+            }
+        }
+        self.layout(&movable)
+    }
+
+    /// Levenberg-Marquardt to convergence with every chain point pulled to the stroke point
+    /// at the same fraction of arclength.
+    fn fit_arclength(&mut self, layout: &DofLayout, assignment: &[chains::Assignment]) {
+        let targets = chains::arclength_targets(self, assignment);
+        for _ in 0..30 {
+            self.iterations += 1;
+            let dec = self.align_to(layout, &targets);
+            if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
+                eprint!(" {dec:.4}");
+            }
+            if dec < 1e-4 {
+                break;
+            }
+        }
     }
 
     /// The DOF layout over movable joints that can influence some model point.
@@ -420,16 +650,14 @@ impl Solver<'_> {
     fn settle(
         &mut self,
         layout: &DofLayout,
-        mut matches: MatchMatrix,
         sigma: f64,
         allowed: Option<&[Option<Vec<bool>>]>,
     ) -> MatchMatrix {
+        let mut matches = self.match_now(sigma, allowed);
         for _ in 0..self.options.max_final_iterations {
             self.align(layout, &matches);
             self.iterations += 1;
-            let fk = ForwardKinematics::new(self.skeleton, &self.pose);
-            let world = self.model.world_points(&fk);
-            let next = self.softassign_at(&world, sigma, allowed);
+            let next = self.match_now(sigma, allowed);
             let change = next.change_from(&matches);
             matches = next;
             if change < 1e-3 {
@@ -439,28 +667,43 @@ impl Solver<'_> {
         matches
     }
 
+    /// Softassign at the current pose.
+    fn match_now(&self, sigma: f64, allowed: Option<&[Option<Vec<bool>>]>) -> MatchMatrix {
+        let fk = ForwardKinematics::new(self.skeleton, &self.pose);
+        let world = self.model.world_points(&fk);
+        self.softassign_at(&world, sigma, allowed)
+    }
+
     /// One Levenberg-Marquardt step on eq. (1) with `omega` fixed: each model point pulled
     /// to the weighted mean of its matches (Dewaele eq. 20 form), plus `Phi(p)`.
     fn align(&mut self, layout: &DofLayout, matches: &MatchMatrix) {
+        let targets: Vec<Option<(Point3, f64)>> = (0..matches.rows())
+            .map(|k| matches.target(k, &self.data))
+            .collect();
+        self.align_to(layout, &targets);
+    }
+
+    /// One Levenberg-Marquardt step pulling model point `k` to `targets[k]` (weighted),
+    /// plus `Phi(p)`. Returns the relative decrease of the cost.
+    fn align_to(&mut self, layout: &DofLayout, targets: &[Option<(Point3, f64)>]) -> f64 {
         if layout.is_empty() {
-            return;
+            return 0.0;
         }
-        let h2 = self.height * self.height;
         let build = |pose: &Pose| -> NormalEquations {
             let fk = ForwardKinematics::new(self.skeleton, pose);
             let mut ne = NormalEquations::new(layout.len());
             let mut cols = Vec::with_capacity(64);
             for (k, mp) in self.model.points.iter().enumerate() {
-                let Some((target, w)) = matches.target(k, &self.data) else {
+                let Some((target, w)) = targets[k] else {
                     continue;
                 };
                 let p = fk.point(mp.joint, &mp.local);
                 cols.clear();
-                fk.point_jacobian(layout, mp.joint, &p, |c, v| cols.push((c, v)));
+                fk.point_jacobian(layout, mp.joint, &p, |c, v| cols.push((c, v / self.height)));
                 ne.add_point(&((p - target) / self.height), w, &cols);
             }
             // Phi(p): rotation vectors away from the start pose, per joint and axis.
-            let prior = self.options.prior_weight;
+            let prior = self.prior_weight;
             for j in 0..self.skeleton.len() {
                 let Some(o) = layout.offset(j) else { continue };
                 let delta =
@@ -487,7 +730,6 @@ impl Solver<'_> {
                     }
                 }
             }
-            let _ = h2;
             ne
         };
         let ne = build(&self.pose);
@@ -499,12 +741,14 @@ impl Solver<'_> {
             };
             let mut trial = self.pose.clone();
             layout.apply(&mut trial, step.as_slice());
-            if build(&trial).cost <= ne.cost {
+            let cost = build(&trial).cost;
+            if cost <= ne.cost {
                 self.pose = trial;
-                return;
+                return (ne.cost - cost) / ne.cost.max(1e-300);
             }
             lambda *= 10.0;
         }
+        0.0
     }
 
     /// Eq. (1) at the current pose: `sum omega |y - v|^2 - zeta sum omega`.
@@ -547,14 +791,14 @@ impl Solver<'_> {
         out
     }
 
-    /// Rigid alignment of the whole character from several headings about the vertical
-    /// axis; keeps the one whose strokes are best explained.
-    fn rigid_init(&mut self, root: usize) {
+    /// Rigid alignments of the whole character from four headings about the vertical axis,
+    /// best explained first.
+    fn rigid_candidates(&mut self, root: usize) -> Vec<Pose> {
         let mut only_root = vec![false; self.skeleton.len()];
         only_root[root] = true;
         let layout = DofLayout::with_active(self.skeleton, &only_root);
         let data_centre = centroid(&self.data);
-        let mut best: Option<(f64, Pose)> = None;
+        let mut found: Vec<(f64, Pose)> = Vec::new();
         let sigmas = self.schedule(0.3, 0.05, 8, false);
         for heading in 0..4 {
             let angle = heading as f64 * std::f64::consts::FRAC_PI_2;
@@ -583,14 +827,10 @@ impl Solver<'_> {
             self.pose.local[root].translation = trs.translation;
             self.pose.local[root].rotation = trs.rotation;
             self.anneal(&layout, &sigmas, None);
-            let score = self.truncated_chamfer();
-            if best.as_ref().is_none_or(|(s, _)| score < *s) {
-                best = Some((score, self.pose.clone()));
-            }
+            found.push((self.truncated_chamfer(), self.pose.clone()));
         }
-        if let Some((_, pose)) = best {
-            self.pose = pose;
-        }
+        found.sort_by(|a, b| a.0.total_cmp(&b.0));
+        found.into_iter().map(|f| f.1).collect()
     }
 
     /// Mean over stroke samples of the squared distance to the nearest model point, capped
