@@ -6,10 +6,11 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::math::Vector3;
 
-/// Accumulated `J^T J`, `J^T r` and the cost `r^T r`.
+/// Accumulated `J^T J` (upper triangle, row-major), `J^T r` and the cost `r^T r`.
 #[derive(Clone, Debug)]
 pub struct NormalEquations {
-    pub jtj: DMatrix<f64>,
+    n: usize,
+    jtj: Vec<f64>,
     pub jtr: DVector<f64>,
     pub cost: f64,
 }
@@ -17,7 +18,8 @@ pub struct NormalEquations {
 impl NormalEquations {
     pub fn new(n: usize) -> Self {
         Self {
-            jtj: DMatrix::zeros(n, n),
+            n,
+            jtj: vec![0.0; n * n],
             jtr: DVector::zeros(n),
             cost: 0.0,
         }
@@ -31,17 +33,16 @@ impl NormalEquations {
     }
 
     /// Adds a 3D residual `r` with weight `w` whose Jacobian columns are `cols`
-    /// (parameter index, dr/dparameter).
+    /// (parameter index, dr/dparameter), in any order.
     pub fn add_point(&mut self, r: &Vector3, w: f64, cols: &[(usize, Vector3)]) {
         self.cost += w * r.norm_squared();
+        let n = self.n;
         for (a, &(ca, va)) in cols.iter().enumerate() {
-            self.jtr[ca] += w * va.dot(r);
+            let wa = va * w;
+            self.jtr[ca] += wa.dot(r);
             for &(cb, vb) in &cols[a..] {
-                let v = w * va.dot(&vb);
-                self.jtj[(ca, cb)] += v;
-                if ca != cb {
-                    self.jtj[(cb, ca)] += v;
-                }
+                let (lo, hi) = if ca <= cb { (ca, cb) } else { (cb, ca) };
+                self.jtj[lo * n + hi] += wa.dot(&vb);
             }
         }
     }
@@ -51,21 +52,45 @@ impl NormalEquations {
     pub fn add_scalar(&mut self, r: f64, w: f64, col: usize, d: f64) {
         self.cost += w * r * r;
         self.jtr[col] += w * d * r;
-        self.jtj[(col, col)] += w * d * d;
+        self.jtj[col * self.n + col] += w * d * d;
+    }
+
+    /// `J^T J` as a full symmetric matrix.
+    pub fn jtj(&self) -> DMatrix<f64> {
+        let n = self.n;
+        DMatrix::from_fn(n, n, |i, j| {
+            let (lo, hi) = if i <= j { (i, j) } else { (j, i) };
+            self.jtj[lo * n + hi]
+        })
     }
 
     /// The Levenberg-Marquardt step: `(J^T J + lambda diag(J^T J) + eps I) delta = -J^T r`.
     pub fn solve(&self, lambda: f64) -> Option<DVector<f64>> {
-        let n = self.jtr.len();
+        let n = self.n;
         if n == 0 {
             return Some(DVector::zeros(0));
         }
-        let mut a = self.jtj.clone();
+        let mut a = self.jtj();
         let scale = (0..n).map(|i| a[(i, i)]).fold(0.0, f64::max).max(1e-12);
         for i in 0..n {
             a[(i, i)] += lambda * a[(i, i)] + 1e-9 * scale;
         }
         let chol = nalgebra::Cholesky::new(a)?;
         Some(-chol.solve(&self.jtr))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn solves_a_small_least_squares_problem() {
+        // r = p - target with J = I: the step is -r.
+        let mut ne = NormalEquations::new(3);
+        let r = Vector3::new(0.5, -1.0, 2.0);
+        ne.add_point(&r, 1.0, &[(0, Vector3::x()), (1, Vector3::y()), (2, Vector3::z())]);
+        let step = ne.solve(0.0).expect("positive definite");
+        assert!((step[0] + 0.5).abs() < 1e-6 && (step[1] - 1.0).abs() < 1e-6 && (step[2] + 2.0).abs() < 1e-6);
     }
 }

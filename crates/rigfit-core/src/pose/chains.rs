@@ -11,6 +11,8 @@ use crate::math::Point3;
 
 /// Samples compared per stroke and chain.
 const SAMPLES: usize = 24;
+/// Chains more than this much longer or shorter (relative) than a stroke are not candidates.
+const MAX_LENGTH_MISMATCH: f64 = 0.6;
 /// Weight of the relative length mismatch against the mean squared distance (in heights).
 const LENGTH_WEIGHT: f64 = 0.1;
 
@@ -43,13 +45,7 @@ pub(super) fn cumulative(line: &[Point3]) -> Vec<f64> {
 
 /// The samples of stroke `s`, in order.
 pub(super) fn stroke_points(solver: &Solver, s: usize) -> Vec<Point3> {
-    solver
-        .data
-        .iter()
-        .zip(&solver.data_stroke)
-        .filter(|(_, d)| **d == s)
-        .map(|(p, _)| *p)
-        .collect()
+    solver.data[solver.stroke_ranges[s].clone()].to_vec()
 }
 
 /// A stroke's chain: bones from the chain's root end to its tip, and whether the stroke was
@@ -61,15 +57,21 @@ pub(super) fn assign(solver: &Solver, chains: &[Vec<usize>], excluded: &[bool]) 
     let model = &solver.model;
     let h = solver.height;
     let fk = ForwardKinematics::new(solver.skeleton, &solver.pose);
-    let lines: Vec<(Vec<Point3>, Vec<f64>, f64)> = chains
+    // Each chain sampled at the same fractions of arclength as the strokes.
+    let samples: Vec<(Vec<Point3>, f64)> = chains
         .iter()
         .map(|c| {
-            let l = model.chain_polyline(c, &fk);
-            let cum = cumulative(&l);
+            let line = model.chain_polyline(c, &fk);
+            let cum = cumulative(&line);
             let len: f64 = c.iter().map(|&b| model.bones[b].length).sum();
-            (l, cum, len)
+            let xs = (0..SAMPLES).map(|i| at(&line, &cum, i as f64 / (SAMPLES - 1) as f64)).collect();
+            (xs, len)
         })
         .collect();
+    // Where a chain attaches moves little with the pose; its tip moves most: the comparison
+    // weighs the attached end more.
+    let weight = |along: f64| 1.2 - along;
+    let weight_sum: f64 = (0..SAMPLES).map(|i| weight(i as f64 / (SAMPLES - 1) as f64)).sum();
     let strokes = solver.stroke_allowed.len();
     // Candidates per stroke: (cost, chain index, reversed), best first.
     let mut candidates: Vec<Vec<(f64, usize, bool)>> = vec![Vec::new(); strokes];
@@ -87,22 +89,19 @@ pub(super) fn assign(solver: &Solver, chains: &[Vec<usize>], excluded: &[bool]) 
                     continue;
                 }
             }
-            let (line, cum, len) = &lines[c];
-            let length_term = LENGTH_WEIGHT * ((stroke_len - len) / len.max(1e-12)).powi(2);
+            let (xs, len) = &samples[c];
+            let mismatch = (stroke_len - len) / len.max(1e-12);
+            if mismatch.abs() > MAX_LENGTH_MISMATCH {
+                continue;
+            }
+            let length_term = LENGTH_WEIGHT * mismatch * mismatch;
             for reversed in [false, true] {
-                // Where a chain attaches moves little with the pose; its tip moves most: the
-                // comparison weighs the attached end more.
                 let mut cost = 0.0;
-                let mut weights = 0.0;
                 for (i, y) in ys.iter().enumerate() {
-                    let u = i as f64 / (SAMPLES - 1) as f64;
-                    let along = if reversed { 1.0 - u } else { u };
-                    let x = at(line, cum, along);
-                    let w = 1.2 - along;
-                    cost += w * (y - x).norm_squared();
-                    weights += w;
+                    let k = if reversed { SAMPLES - 1 - i } else { i };
+                    cost += weight(k as f64 / (SAMPLES - 1) as f64) * (y - xs[k]).norm_squared();
                 }
-                list.push((cost / weights / (h * h) + length_term, c, reversed));
+                list.push((cost / weight_sum / (h * h) + length_term, c, reversed));
             }
         }
         list.sort_by(|a, b| a.0.total_cmp(&b.0));

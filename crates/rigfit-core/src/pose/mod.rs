@@ -22,6 +22,12 @@ pub use bones::BoneModel;
 /// residual (heights) when choosing among heading hypotheses.
 const HYPOTHESIS_BEND_WEIGHT: f64 = 2e-3;
 
+/// Levenberg-Marquardt steps used to judge a trial assignment in the local search.
+const QUICK_FIT_STEPS: usize = 5;
+
+/// Weight of a joint-limit violation (radians) in the fit.
+const LIMIT_WEIGHT: f64 = 100.0;
+
 /// The longest chain of bones one stroke may cover.
 const MAX_CHAIN_BONES: usize = 12;
 
@@ -38,8 +44,13 @@ pub struct PoseOptions {
     /// Give each stroke one connected chain of bones (in order) and restrict its matches to
     /// it; undrawn bones keep their start pose; strokes no chain explains are set aside.
     pub chain_assignment: bool,
-    /// Spacing of model and stroke samples.
+    /// Run the paper's softassign annealing over all bones before the chain step (measured:
+    /// the chain step does better from the rigid alignment alone).
+    pub anneal_before_chains: bool,
+    /// Spacing of the model points along the bones.
     pub spacing: f64,
+    /// Spacing of stroke samples after resampling.
+    pub stroke_spacing: f64,
     /// Annealing: the match scale `sigma = 1/sqrt(beta)` goes from `sigma_start` to
     /// `sigma_end`.
     pub sigma_start: f64,
@@ -66,7 +77,9 @@ impl Default for PoseOptions {
             beautify: true,
             rigid_init: true,
             chain_assignment: true,
+            anneal_before_chains: false,
             spacing: 0.025,
+            stroke_spacing: 0.025,
             sigma_start: 0.2,
             sigma_end: 0.012,
             anneal_steps: 14,
@@ -149,6 +162,8 @@ struct Solver<'a> {
     /// Stroke samples and the stroke each belongs to.
     data: Vec<Point3>,
     data_stroke: Vec<usize>,
+    /// The samples of each stroke, as a range of `data`.
+    stroke_ranges: Vec<std::ops::Range<usize>>,
     /// Per stroke: the bones it may match (`None` = any).
     stroke_allowed: Vec<Option<Vec<bool>>>,
     /// Joints allowed to move at all.
@@ -157,6 +172,8 @@ struct Solver<'a> {
     iterations: usize,
     /// The weight of `Phi(p)` in force (lowered for the final polish).
     prior_weight: f64,
+    /// The Levenberg-Marquardt damping, adapted from step to step.
+    lambda: f64,
 }
 
 /// Poses `problem.skeleton` so its bones lie along the strokes.
@@ -212,9 +229,9 @@ pub fn solve_pose(problem: &PoseProblem, options: &PoseOptions) -> Result<PoseRe
     let mut data_stroke = Vec::new();
     for (s, stroke) in problem.strokes.iter().enumerate() {
         let samples = if options.beautify {
-            beautify::beautify(&stroke.points, spacing)
+            beautify::beautify(&stroke.points, options.stroke_spacing * height)
         } else {
-            beautify::resample(&stroke.points, spacing)
+            beautify::resample(&stroke.points, options.stroke_spacing * height)
         };
         data_stroke.extend(std::iter::repeat_n(s, samples.len()));
         data.extend(samples);
@@ -245,6 +262,12 @@ pub fn solve_pose(problem: &PoseProblem, options: &PoseOptions) -> Result<PoseRe
         options,
         height,
         model,
+        stroke_ranges: (0..problem.strokes.len())
+            .map(|s| {
+                let start = data_stroke.partition_point(|&d| d < s);
+                start..data_stroke.partition_point(|&d| d <= s)
+            })
+            .collect(),
         data,
         data_stroke,
         stroke_allowed,
@@ -252,6 +275,7 @@ pub fn solve_pose(problem: &PoseProblem, options: &PoseOptions) -> Result<PoseRe
         pose: problem.start.clone(),
         iterations: 0,
         prior_weight: options.prior_weight,
+        lambda: 1e-3,
     };
     solver.run()
 }
@@ -263,10 +287,14 @@ impl Solver<'_> {
             .skeleton
             .skin_root()
             .filter(|&r| self.movable[r] && self.skeleton.joint(r).dof == JointDof::Free);
+        let t0 = std::time::Instant::now();
         let starts = match (opts.rigid_init, root) {
             (true, Some(root)) => self.rigid_candidates(root),
             _ => vec![self.start.clone()],
         };
+        if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
+            eprintln!("time after rigid init {:?}", t0.elapsed());
+        }
         let all = self.layout(&self.movable.clone());
         let sigmas = self.schedule(
             opts.sigma_start,
@@ -281,7 +309,7 @@ impl Solver<'_> {
             // Every heading hypothesis goes through the whole chain fit; the one whose strokes
             // are best explained wins (a mirrored body fits its strokes visibly worse).
             let chains = self.model.chains(MAX_CHAIN_BONES);
-            let mut best: Option<(f64, Pose, Vec<chains::Assignment>, DofLayout)> = None;
+            let mut fits: Vec<(f64, Pose, Vec<chains::Assignment>, DofLayout)> = Vec::new();
             let forced: Option<usize> = std::env::var("RIGFIT_DEBUG_HYP")
                 .ok()
                 .and_then(|v| v.parse().ok());
@@ -290,18 +318,33 @@ impl Solver<'_> {
                     continue;
                 }
                 self.pose = start;
-                if std::env::var_os("RIGFIT_NO_ANNEAL").is_none() {
+                if opts.anneal_before_chains {
                     self.anneal(&all, &sigmas, None);
                 }
                 let (assignment, layout, score) = self.fit_chains(&chains, root);
                 if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
                     eprintln!("hypothesis: score {score:.6} assignment {assignment:?}");
                 }
+                fits.push((score, self.pose.clone(), assignment, layout));
+            }
+            if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
+                eprintln!("time after chain fits {:?} ({} iterations)", t0.elapsed(), self.iterations);
+            }
+            // Local search on the promising hypotheses only.
+            fits.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let cutoff = fits.first().map_or(0.0, |f| 4.0 * f.0);
+            let mut best: Option<(f64, Pose, Vec<chains::Assignment>, DofLayout)> = None;
+            for (score, pose, assignment, layout) in fits.into_iter().filter(|f| f.0 <= cutoff).take(2) {
+                self.pose = pose;
+                let (assignment, layout, score) = self.improve_chains(&chains, root, assignment, layout, score);
                 if best.as_ref().is_none_or(|b| score < b.0) {
                     best = Some((score, self.pose.clone(), assignment, layout));
                 }
             }
             let (_, pose, assignment, layout) = best.expect("at least one start");
+            if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
+                eprintln!("time after local search {:?} ({} iterations)", t0.elapsed(), self.iterations);
+            }
             self.pose = pose;
             let allowed_bones: Vec<Option<Vec<bool>>> = assignment
                 .iter()
@@ -391,9 +434,24 @@ impl Solver<'_> {
                 None => break,
             }
         }
+        let score = self.chain_score(&assignment, &layout, root);
+        (assignment, layout, score)
+    }
+
+    /// Local search from a chain fit: swap the chains of two strokes of similar length (left
+    /// and right limbs), or move a stroke to another chain, whenever that explains the
+    /// strokes better.
+    fn improve_chains(
+        &mut self,
+        chains: &[Vec<usize>],
+        root: Option<usize>,
+        mut assignment: Vec<chains::Assignment>,
+        mut layout: DofLayout,
+        mut score: f64,
+    ) -> (Vec<chains::Assignment>, DofLayout, f64) {
+        let strokes = assignment.len();
         // Local search: swap the chains of two strokes of similar length (left and right
         // limbs) when that explains the strokes better.
-        let mut score = self.chain_score(&assignment, &layout, root);
         let bone_lengths: Vec<f64> = self.model.bones.iter().map(|b| b.length).collect();
         let length = |c: &[usize]| c.iter().map(|&b| bone_lengths[b]).sum::<f64>();
         for _pass in 0..2 {
@@ -412,12 +470,13 @@ impl Solver<'_> {
                     trial[t] = Some((cs.clone(), chains::better_direction(self, t, cs)));
                     let saved = self.pose.clone();
                     let trial_layout = self.keep_unexplained_at_start(&trial, root);
-                    self.fit_arclength(&trial_layout, &trial);
+                    self.fit_arclength_steps(&trial_layout, &trial, QUICK_FIT_STEPS);
                     let trial_score = self.chain_score(&trial, &trial_layout, root);
                     if trial_score < score {
+                        self.fit_arclength(&trial_layout, &trial);
                         assignment = trial;
                         layout = trial_layout;
-                        score = trial_score;
+                        score = self.chain_score(&assignment, &layout, root);
                         improved = true;
                     } else {
                         self.pose = saved;
@@ -454,17 +513,18 @@ impl Solver<'_> {
                         .abs()
                         .total_cmp(&(length(b) - stroke_length).abs())
                 });
-                for c in options.into_iter().take(4) {
+                for c in options.into_iter().take(3) {
                     let mut trial = assignment.clone();
                     trial[s] = Some((c.clone(), chains::better_direction(self, s, c)));
                     let saved = self.pose.clone();
                     let trial_layout = self.keep_unexplained_at_start(&trial, root);
-                    self.fit_arclength(&trial_layout, &trial);
+                    self.fit_arclength_steps(&trial_layout, &trial, QUICK_FIT_STEPS);
                     let trial_score = self.chain_score(&trial, &trial_layout, root);
                     if trial_score < score {
+                        self.fit_arclength(&trial_layout, &trial);
                         assignment = trial;
                         layout = trial_layout;
-                        score = trial_score;
+                        score = self.chain_score(&assignment, &layout, root);
                         improved = true;
                         break;
                     }
@@ -550,14 +610,15 @@ impl Solver<'_> {
     /// Levenberg-Marquardt to convergence with every chain point pulled to the stroke point
     /// at the same fraction of arclength.
     fn fit_arclength(&mut self, layout: &DofLayout, assignment: &[chains::Assignment]) {
+        self.fit_arclength_steps(layout, assignment, 20);
+    }
+
+    /// At most `steps` Levenberg-Marquardt steps of the arclength fit.
+    fn fit_arclength_steps(&mut self, layout: &DofLayout, assignment: &[chains::Assignment], steps: usize) {
         let targets = chains::arclength_targets(self, assignment);
-        for _ in 0..30 {
+        for _ in 0..steps {
             self.iterations += 1;
-            let dec = self.align_to(layout, &targets);
-            if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
-                eprint!(" {dec:.4}");
-            }
-            if dec < 1e-4 {
+            if self.align_to(layout, &targets) < 1e-3 {
                 break;
             }
         }
@@ -683,70 +744,83 @@ impl Solver<'_> {
         self.align_to(layout, &targets);
     }
 
+    /// The weighted cost of `pose`: model point `k` pulled to `targets[k]`, plus `Phi(p)` and
+    /// joint-limit penalties. With `ne`, also accumulates the normal equations.
+    fn objective(
+        &self,
+        layout: &DofLayout,
+        targets: &[Option<(Point3, f64)>],
+        pose: &Pose,
+        mut ne: Option<&mut NormalEquations>,
+    ) -> f64 {
+        let fk = ForwardKinematics::new(self.skeleton, pose);
+        let mut cost = 0.0;
+        let mut cols = Vec::with_capacity(64);
+        for (k, mp) in self.model.points.iter().enumerate() {
+            let Some((target, w)) = targets[k] else { continue };
+            let p = fk.point(mp.joint, &mp.local);
+            let r = (p - target) / self.height;
+            match ne.as_deref_mut() {
+                Some(ne) => {
+                    cols.clear();
+                    fk.point_jacobian(layout, mp.joint, &p, |c, v| cols.push((c, v / self.height)));
+                    ne.add_point(&r, w, &cols);
+                }
+                None => cost += w * r.norm_squared(),
+            }
+        }
+        // Phi(p): rotation vectors away from the start pose, per joint and axis.
+        let prior = self.prior_weight;
+        let mut scalar = |ne: &mut Option<&mut NormalEquations>, r: f64, w: f64, col: usize| match ne {
+            Some(ne) => ne.add_scalar(r, w, col, 1.0),
+            None => cost += w * r * r,
+        };
+        for j in 0..self.skeleton.len() {
+            let Some(o) = layout.offset(j) else { continue };
+            let delta = (self.start.local[j].rotation.inverse() * pose.local[j].rotation).scaled_axis();
+            match layout.dof(j) {
+                JointDof::Ball => (0..3).for_each(|a| scalar(&mut ne, delta[a], prior, o + a)),
+                JointDof::Hinge { axis } => scalar(&mut ne, delta.dot(&axis.normalize()), prior, o),
+                _ => {}
+            }
+            if let (Some(lim), JointDof::Ball) = (&self.skeleton.joint(j).limits, layout.dof(j)) {
+                let rest = (self.skeleton.joint(j).rest.rotation.inverse() * pose.local[j].rotation).scaled_axis();
+                for a in 0..3 {
+                    let excess = (rest[a] - lim.max[a]).max(0.0) + (rest[a] - lim.min[a]).min(0.0);
+                    if excess != 0.0 {
+                        scalar(&mut ne, excess, LIMIT_WEIGHT, o + a);
+                    }
+                }
+            }
+        }
+        match ne {
+            Some(ne) => ne.cost,
+            None => cost,
+        }
+    }
+
     /// One Levenberg-Marquardt step pulling model point `k` to `targets[k]` (weighted),
     /// plus `Phi(p)`. Returns the relative decrease of the cost.
     fn align_to(&mut self, layout: &DofLayout, targets: &[Option<(Point3, f64)>]) -> f64 {
         if layout.is_empty() {
             return 0.0;
         }
-        let build = |pose: &Pose| -> NormalEquations {
-            let fk = ForwardKinematics::new(self.skeleton, pose);
-            let mut ne = NormalEquations::new(layout.len());
-            let mut cols = Vec::with_capacity(64);
-            for (k, mp) in self.model.points.iter().enumerate() {
-                let Some((target, w)) = targets[k] else {
-                    continue;
-                };
-                let p = fk.point(mp.joint, &mp.local);
-                cols.clear();
-                fk.point_jacobian(layout, mp.joint, &p, |c, v| cols.push((c, v / self.height)));
-                ne.add_point(&((p - target) / self.height), w, &cols);
-            }
-            // Phi(p): rotation vectors away from the start pose, per joint and axis.
-            let prior = self.prior_weight;
-            for j in 0..self.skeleton.len() {
-                let Some(o) = layout.offset(j) else { continue };
-                let delta =
-                    (self.start.local[j].rotation.inverse() * pose.local[j].rotation).scaled_axis();
-                match layout.dof(j) {
-                    JointDof::Ball => {
-                        (0..3).for_each(|a| ne.add_scalar(delta[a], prior, o + a, 1.0))
-                    }
-                    JointDof::Hinge { axis } => {
-                        ne.add_scalar(delta.dot(&axis.normalize()), prior, o, 1.0)
-                    }
-                    _ => {}
-                }
-                if let Some(lim) = &self.skeleton.joint(j).limits {
-                    let rest = (self.skeleton.joint(j).rest.rotation.inverse()
-                        * pose.local[j].rotation)
-                        .scaled_axis();
-                    for a in 0..3 {
-                        let excess =
-                            (rest[a] - lim.max[a]).max(0.0) + (rest[a] - lim.min[a]).min(0.0);
-                        if excess != 0.0 && layout.dof(j) == JointDof::Ball {
-                            ne.add_scalar(excess, 100.0, o + a, 1.0);
-                        }
-                    }
-                }
-            }
-            ne
-        };
-        let ne = build(&self.pose);
-        let mut lambda = 1e-3;
-        for _ in 0..6 {
-            let Some(step) = ne.solve(lambda) else {
-                lambda *= 10.0;
+        let mut ne = NormalEquations::new(layout.len());
+        let cost = self.objective(layout, targets, &self.pose, Some(&mut ne));
+        for _ in 0..8 {
+            let Some(step) = ne.solve(self.lambda) else {
+                self.lambda *= 10.0;
                 continue;
             };
             let mut trial = self.pose.clone();
             layout.apply(&mut trial, step.as_slice());
-            let cost = build(&trial).cost;
-            if cost <= ne.cost {
+            let trial_cost = self.objective(layout, targets, &trial, None);
+            if trial_cost <= cost {
                 self.pose = trial;
-                return (ne.cost - cost) / ne.cost.max(1e-300);
+                self.lambda = (self.lambda / 3.0).max(1e-7);
+                return (cost - trial_cost) / cost.max(1e-300);
             }
-            lambda *= 10.0;
+            self.lambda *= 10.0;
         }
         0.0
     }
@@ -799,7 +873,14 @@ impl Solver<'_> {
         let layout = DofLayout::with_active(self.skeleton, &only_root);
         let data_centre = centroid(&self.data);
         let mut found: Vec<(f64, Pose)> = Vec::new();
-        let sigmas = self.schedule(0.3, 0.05, 8, false);
+        let sigmas = self.schedule(0.3, 0.05, 6, false);
+        // A rigid fit needs few points: every third stroke sample, every other model point.
+        let full_data = std::mem::take(&mut self.data);
+        let full_strokes = std::mem::take(&mut self.data_stroke);
+        let full_points = std::mem::take(&mut self.model.points);
+        self.data = full_data.iter().step_by(3).copied().collect();
+        self.data_stroke = full_strokes.iter().step_by(3).copied().collect();
+        self.model.points = full_points.iter().step_by(2).copied().collect();
         for heading in 0..4 {
             let angle = heading as f64 * std::f64::consts::FRAC_PI_2;
             self.pose = self.start.clone();
@@ -829,6 +910,9 @@ impl Solver<'_> {
             self.anneal(&layout, &sigmas, None);
             found.push((self.truncated_chamfer(), self.pose.clone()));
         }
+        self.data = full_data;
+        self.data_stroke = full_strokes;
+        self.model.points = full_points;
         found.sort_by(|a, b| a.0.total_cmp(&b.0));
         found.into_iter().map(|f| f.1).collect()
     }
