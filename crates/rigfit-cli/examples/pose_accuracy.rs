@@ -141,13 +141,15 @@ fn main() {
                     }
                     errors.push(err);
                     for chain in &case.dropped_chains {
-                        motion = motion.max(limb_motion(
-                            &rig.skeleton,
-                            start,
-                            &result.pose,
-                            chain,
-                            height,
-                        ));
+                        let m = limb_motion(&rig.skeleton, start, &result.pose, chain, height);
+                        if std::env::var("VERBOSE").is_ok() {
+                            let names: Vec<&str> = chain
+                                .iter()
+                                .map(|&j| rig.skeleton.joint(j).name.as_str())
+                                .collect();
+                            eprintln!("   undrawn {names:?} moved {:.2}%", m * 100.0);
+                        }
+                        motion = motion.max(m);
                     }
                 }
             }

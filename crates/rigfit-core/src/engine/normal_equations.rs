@@ -89,8 +89,16 @@ mod tests {
         // r = p - target with J = I: the step is -r.
         let mut ne = NormalEquations::new(3);
         let r = Vector3::new(0.5, -1.0, 2.0);
-        ne.add_point(&r, 1.0, &[(0, Vector3::x()), (1, Vector3::y()), (2, Vector3::z())]);
+        ne.add_point(
+            &r,
+            1.0,
+            &[(0, Vector3::x()), (1, Vector3::y()), (2, Vector3::z())],
+        );
         let step = ne.solve(0.0).expect("positive definite");
-        assert!((step[0] + 0.5).abs() < 1e-6 && (step[1] - 1.0).abs() < 1e-6 && (step[2] + 2.0).abs() < 1e-6);
+        assert!(
+            (step[0] + 0.5).abs() < 1e-6
+                && (step[1] - 1.0).abs() < 1e-6
+                && (step[2] + 2.0).abs() < 1e-6
+        );
     }
 }

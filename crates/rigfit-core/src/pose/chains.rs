@@ -54,6 +54,21 @@ pub(super) type Assignment = Option<(Vec<usize>, bool)>;
 
 /// For each stroke not `excluded`, its chain (`None` when no free chain is left for it).
 pub(super) fn assign(solver: &Solver, chains: &[Vec<usize>], excluded: &[bool]) -> Vec<Assignment> {
+    let candidates = candidates(solver, chains, excluded);
+    greedy(
+        solver,
+        chains,
+        &candidates,
+        &vec![None; excluded.len()],
+        excluded,
+    )
+}
+
+/// Candidate chains per stroke at the current pose: (cost, chain index, reversed), best first.
+pub(super) type Candidates = Vec<Vec<(f64, usize, bool)>>;
+
+/// The candidates of every stroke not `excluded`.
+pub(super) fn candidates(solver: &Solver, chains: &[Vec<usize>], excluded: &[bool]) -> Candidates {
     let model = &solver.model;
     let h = solver.height;
     let fk = ForwardKinematics::new(solver.skeleton, &solver.pose);
@@ -64,14 +79,18 @@ pub(super) fn assign(solver: &Solver, chains: &[Vec<usize>], excluded: &[bool]) 
             let line = model.chain_polyline(c, &fk);
             let cum = cumulative(&line);
             let len: f64 = c.iter().map(|&b| model.bones[b].length).sum();
-            let xs = (0..SAMPLES).map(|i| at(&line, &cum, i as f64 / (SAMPLES - 1) as f64)).collect();
+            let xs = (0..SAMPLES)
+                .map(|i| at(&line, &cum, i as f64 / (SAMPLES - 1) as f64))
+                .collect();
             (xs, len)
         })
         .collect();
     // Where a chain attaches moves little with the pose; its tip moves most: the comparison
     // weighs the attached end more.
     let weight = |along: f64| 1.2 - along;
-    let weight_sum: f64 = (0..SAMPLES).map(|i| weight(i as f64 / (SAMPLES - 1) as f64)).sum();
+    let weight_sum: f64 = (0..SAMPLES)
+        .map(|i| weight(i as f64 / (SAMPLES - 1) as f64))
+        .sum();
     let strokes = solver.stroke_allowed.len();
     // Candidates per stroke: (cost, chain index, reversed), best first.
     let mut candidates: Vec<Vec<(f64, usize, bool)>> = vec![Vec::new(); strokes];
@@ -106,9 +125,30 @@ pub(super) fn assign(solver: &Solver, chains: &[Vec<usize>], excluded: &[bool]) 
         }
         list.sort_by(|a, b| a.0.total_cmp(&b.0));
     }
-    let mut used = vec![false; model.bones.len()];
-    let mut result: Vec<Assignment> = vec![None; strokes];
+    candidates
+}
+
+/// Greedy assignment: strokes with a `fixed` chain keep it; the others take, best first, the
+/// best candidate whose bones are still free.
+pub(super) fn greedy(
+    solver: &Solver,
+    chains: &[Vec<usize>],
+    candidates: &Candidates,
+    fixed: &[Assignment],
+    excluded: &[bool],
+) -> Vec<Assignment> {
+    let strokes = candidates.len();
+    let mut used = vec![false; solver.model.bones.len()];
+    let mut result: Vec<Assignment> = fixed.to_vec();
     let mut done: Vec<bool> = excluded.to_vec();
+    for (s, f) in fixed.iter().enumerate() {
+        if let Some((chain, _)) = f {
+            done[s] = true;
+            for &b in chain {
+                used[b] = true;
+            }
+        }
+    }
     loop {
         // The unassigned stroke whose best still-free chain fits best.
         let mut pick: Option<(f64, usize, usize, bool)> = None;

@@ -23,7 +23,7 @@ pub use bones::BoneModel;
 const HYPOTHESIS_BEND_WEIGHT: f64 = 2e-3;
 
 /// Levenberg-Marquardt steps used to judge a trial assignment in the local search.
-const QUICK_FIT_STEPS: usize = 5;
+const QUICK_FIT_STEPS: usize = 8;
 
 /// Weight of a joint-limit violation (radians) in the fit.
 const LIMIT_WEIGHT: f64 = 100.0;
@@ -328,22 +328,33 @@ impl Solver<'_> {
                 fits.push((score, self.pose.clone(), assignment, layout));
             }
             if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
-                eprintln!("time after chain fits {:?} ({} iterations)", t0.elapsed(), self.iterations);
+                eprintln!(
+                    "time after chain fits {:?} ({} iterations)",
+                    t0.elapsed(),
+                    self.iterations
+                );
             }
             // Local search on the promising hypotheses only.
             fits.sort_by(|a, b| a.0.total_cmp(&b.0));
             let cutoff = fits.first().map_or(0.0, |f| 4.0 * f.0);
             let mut best: Option<(f64, Pose, Vec<chains::Assignment>, DofLayout)> = None;
-            for (score, pose, assignment, layout) in fits.into_iter().filter(|f| f.0 <= cutoff).take(2) {
+            for (score, pose, assignment, layout) in
+                fits.into_iter().filter(|f| f.0 <= cutoff).take(2)
+            {
                 self.pose = pose;
-                let (assignment, layout, score) = self.improve_chains(&chains, root, assignment, layout, score);
+                let (assignment, layout, score) =
+                    self.improve_chains(&chains, root, assignment, layout, score);
                 if best.as_ref().is_none_or(|b| score < b.0) {
                     best = Some((score, self.pose.clone(), assignment, layout));
                 }
             }
             let (_, pose, assignment, layout) = best.expect("at least one start");
             if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
-                eprintln!("time after local search {:?} ({} iterations)", t0.elapsed(), self.iterations);
+                eprintln!(
+                    "time after local search {:?} ({} iterations)",
+                    t0.elapsed(),
+                    self.iterations
+                );
             }
             self.pose = pose;
             let allowed_bones: Vec<Option<Vec<bool>>> = assignment
@@ -483,6 +494,52 @@ impl Solver<'_> {
                     }
                 }
             }
+            // Give a stroke one of its best candidate chains at the current pose, and let the
+            // strokes whose chains that takes pick again.
+            let ranked = chains::candidates(self, chains, &vec![false; strokes]);
+            for s in 0..strokes {
+                let Some((current, _)) = assignment[s].clone() else {
+                    continue;
+                };
+                let picks: Vec<(usize, bool)> = ranked[s]
+                    .iter()
+                    .filter(|(_, c, _)| chains[*c] != current)
+                    .map(|&(_, c, r)| (c, r))
+                    .take(3)
+                    .collect();
+                for (c, reversed) in picks {
+                    let chain = &chains[c];
+                    let mut fixed = assignment.clone();
+                    fixed[s] = Some((chain.clone(), reversed));
+                    for (t, f) in fixed.iter_mut().enumerate() {
+                        if t != s
+                            && f.as_ref()
+                                .is_some_and(|(ct, _)| ct.iter().any(|b| chain.contains(b)))
+                        {
+                            *f = None;
+                        }
+                    }
+                    let excluded: Vec<bool> =
+                        (0..strokes).map(|t| assignment[t].is_none()).collect();
+                    let trial = chains::greedy(self, chains, &ranked, &fixed, &excluded);
+                    if trial == assignment {
+                        continue;
+                    }
+                    let saved = self.pose.clone();
+                    let trial_layout = self.keep_unexplained_at_start(&trial, root);
+                    self.fit_arclength_steps(&trial_layout, &trial, QUICK_FIT_STEPS);
+                    let trial_score = self.chain_score(&trial, &trial_layout, root);
+                    if trial_score < score {
+                        self.fit_arclength(&trial_layout, &trial);
+                        assignment = trial;
+                        layout = trial_layout;
+                        score = self.chain_score(&assignment, &layout, root);
+                        improved = true;
+                        break;
+                    }
+                    self.pose = saved;
+                }
+            }
             // Move a stroke to a free chain of similar length (the other side's limb when one
             // limb is undrawn).
             for s in 0..strokes {
@@ -614,7 +671,12 @@ impl Solver<'_> {
     }
 
     /// At most `steps` Levenberg-Marquardt steps of the arclength fit.
-    fn fit_arclength_steps(&mut self, layout: &DofLayout, assignment: &[chains::Assignment], steps: usize) {
+    fn fit_arclength_steps(
+        &mut self,
+        layout: &DofLayout,
+        assignment: &[chains::Assignment],
+        steps: usize,
+    ) {
         let targets = chains::arclength_targets(self, assignment);
         for _ in 0..steps {
             self.iterations += 1;
@@ -757,7 +819,9 @@ impl Solver<'_> {
         let mut cost = 0.0;
         let mut cols = Vec::with_capacity(64);
         for (k, mp) in self.model.points.iter().enumerate() {
-            let Some((target, w)) = targets[k] else { continue };
+            let Some((target, w)) = targets[k] else {
+                continue;
+            };
             let p = fk.point(mp.joint, &mp.local);
             let r = (p - target) / self.height;
             match ne.as_deref_mut() {
@@ -771,20 +835,24 @@ impl Solver<'_> {
         }
         // Phi(p): rotation vectors away from the start pose, per joint and axis.
         let prior = self.prior_weight;
-        let mut scalar = |ne: &mut Option<&mut NormalEquations>, r: f64, w: f64, col: usize| match ne {
-            Some(ne) => ne.add_scalar(r, w, col, 1.0),
-            None => cost += w * r * r,
-        };
+        let mut scalar =
+            |ne: &mut Option<&mut NormalEquations>, r: f64, w: f64, col: usize| match ne {
+                Some(ne) => ne.add_scalar(r, w, col, 1.0),
+                None => cost += w * r * r,
+            };
         for j in 0..self.skeleton.len() {
             let Some(o) = layout.offset(j) else { continue };
-            let delta = (self.start.local[j].rotation.inverse() * pose.local[j].rotation).scaled_axis();
+            let delta =
+                (self.start.local[j].rotation.inverse() * pose.local[j].rotation).scaled_axis();
             match layout.dof(j) {
                 JointDof::Ball => (0..3).for_each(|a| scalar(&mut ne, delta[a], prior, o + a)),
                 JointDof::Hinge { axis } => scalar(&mut ne, delta.dot(&axis.normalize()), prior, o),
                 _ => {}
             }
             if let (Some(lim), JointDof::Ball) = (&self.skeleton.joint(j).limits, layout.dof(j)) {
-                let rest = (self.skeleton.joint(j).rest.rotation.inverse() * pose.local[j].rotation).scaled_axis();
+                let rest = (self.skeleton.joint(j).rest.rotation.inverse()
+                    * pose.local[j].rotation)
+                    .scaled_axis();
                 for a in 0..3 {
                     let excess = (rest[a] - lim.max[a]).max(0.0) + (rest[a] - lim.min[a]).min(0.0);
                     if excess != 0.0 {
