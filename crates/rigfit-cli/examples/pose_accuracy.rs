@@ -51,6 +51,41 @@ fn suites() -> Vec<(String, Rig, Pose, Vec<Pose>)> {
             .collect();
         out.push((file.to_string(), r.rig.clone(), r.rig.pose.clone(), truths));
     }
+    // The WebXR hand (rest pose only): fingers curled by poses set here.
+    let hand = read_rig(&data("webxr_hand/left.glb"), &RigOptions::default()).expect("hand");
+    let mut truths = Vec::new();
+    for i in 0..5u64 {
+        let mut pose = hand.rig.pose.clone();
+        let mut state = 99 + i * 7919;
+        let mut random = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for (j, joint) in hand.rig.skeleton.joints().iter().enumerate() {
+            let curl = if joint.name.contains("metacarpal") {
+                0.15
+            } else {
+                1.1
+            };
+            if joint.name.contains("phalanx") || joint.name.contains("metacarpal") {
+                let bend = rigfit_core::Quat::from_euler_angles(
+                    curl * random(),
+                    0.0,
+                    0.3 * (random() - 0.5),
+                );
+                pose.local[j].rotation *= bend;
+            }
+        }
+        truths.push(pose);
+    }
+    out.push((
+        "webxr_hand/left.glb".to_string(),
+        hand.rig.clone(),
+        hand.rig.pose.clone(),
+        truths,
+    ));
     out
 }
 

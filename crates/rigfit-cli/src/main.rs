@@ -17,6 +17,10 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Pose a rigged character (.glb/.gltf/.bvh) so its bones follow 3D strokes.
+    Pose(commands::pose::PoseArgs),
+    /// The main job on the built-in humanoid: draw strokes, pose, write the results.
+    Demo(commands::demo::DemoArgs),
     /// Show what a rig, mesh, point cloud or strokes file holds.
     Info(commands::info::InfoArgs),
     /// Write the built-in procedural humanoid as a .glb (or .bvh).
@@ -35,6 +39,8 @@ fn main() -> ExitCode {
         .init();
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Pose(args) => commands::pose::run(&args),
+        Command::Demo(args) => commands::demo::run(&args),
         Command::Info(args) => commands::info::run(&args),
         Command::DemoRig(args) => commands::demo_rig::run(&args),
     };

@@ -7,6 +7,7 @@
 pub mod animation;
 pub mod engine;
 pub mod geometry;
+pub mod hierarchy;
 pub mod humanoid;
 pub mod kinematics;
 pub mod math;

@@ -9,6 +9,7 @@ pub mod error;
 pub mod gltf;
 pub mod obj;
 pub mod ply;
+pub mod report;
 pub mod rig_file;
 pub mod strokes;
 

@@ -31,8 +31,12 @@ pub enum RigSource {
 #[derive(Debug, Clone)]
 pub struct RigFile {
     pub path: PathBuf,
+    /// The rig as rigfit works with it (a flat WebXR hand rebuilt as a tree).
     pub rig: Rig,
     pub source: RigSource,
+    /// When the hierarchy was rebuilt: for each joint of `rig`, its index in the file's own
+    /// skeleton (the one in `source`).
+    pub file_index: Option<Vec<usize>>,
 }
 
 /// Options for reading a rig.
@@ -49,14 +53,18 @@ pub fn read_rig(path: &Path, options: &RigOptions) -> Result<RigFile, FormatErro
     match extension(path).as_str() {
         "glb" | "gltf" => {
             let doc = read_gltf(path, options.skin.as_deref())?;
-            let rig = doc
-                .require_rig()
-                .map_err(|e| FormatError::parse(path, e))?
-                .clone();
+            let rig = doc.require_rig().map_err(|e| FormatError::parse(path, e))?;
+            let rebuilt = rigfit_core::hierarchy::webxr_hand_parents(&rig.skeleton)
+                .and_then(|parents| rigfit_core::hierarchy::reparent(rig, &parents));
+            let (rig, file_index) = match rebuilt {
+                Some((rig, index)) => (rig, Some(index)),
+                None => (rig.clone(), None),
+            };
             Ok(RigFile {
                 path: path.to_path_buf(),
                 rig,
                 source: RigSource::Gltf(Box::new(doc)),
+                file_index,
             })
         }
         "bvh" => {
@@ -85,6 +93,7 @@ pub fn read_rig(path: &Path, options: &RigOptions) -> Result<RigFile, FormatErro
                 path: path.to_path_buf(),
                 rig,
                 source: RigSource::Bvh(doc),
+                file_index: None,
             })
         }
         _ => Err(FormatError::Unsupported {
@@ -95,37 +104,75 @@ pub fn read_rig(path: &Path, options: &RigOptions) -> Result<RigFile, FormatErro
 }
 
 impl RigFile {
-    /// Writes the rig with `pose` to `out`: `.glb`/`.gltf` (only from a glTF source: the
-    /// input file with the pose as node transforms and `keys` as its `rigfit` animation) or
-    /// `.bvh` (a BVH source keeps its channels; `keys` become its frames, or `pose` alone).
-    pub fn write(&self, out: &Path, pose: &Pose, keys: &[(f64, Pose)]) -> Result<(), FormatError> {
+    /// `pose` (of [`Self::rig`]) expressed in the file's own skeleton.
+    pub fn file_pose(&self, pose: &Pose) -> Pose {
+        match (&self.file_index, &self.source) {
+            (Some(index), RigSource::Gltf(doc)) => {
+                let file_skeleton = &doc
+                    .rig
+                    .as_ref()
+                    .expect("a glTF rig source has a skin")
+                    .skeleton;
+                let world = self.rig.skeleton.world_matrices(pose);
+                let mut file_world = vec![rigfit_core::Matrix4::identity(); world.len()];
+                for (j, &f) in index.iter().enumerate() {
+                    file_world[f] = world[j];
+                }
+                file_skeleton.pose_from_world(&file_world)
+            }
+            _ => pose.clone(),
+        }
+    }
+
+    /// Writes the rig posed as `pose` to `out`:
+    /// - `.glb`/`.gltf` from a glTF source: the input file with the pose as node transforms
+    ///   and as a key of the `rigfit` animation: at `frame` (at 24 frames per second, keeping
+    ///   the animation's other keys) or, without a frame, as its only key at time 0;
+    /// - `.bvh` from a BVH source: the file's skeleton and channels with the pose as frame
+    ///   `frame` (other frames kept) or, without a frame, as the only frame;
+    /// - `.bvh` from a glTF source, `.glb` from a BVH source: the rig written anew.
+    pub fn write_pose(
+        &self,
+        out: &Path,
+        pose: &Pose,
+        frame: Option<usize>,
+    ) -> Result<(), FormatError> {
         match (extension(out).as_str(), &self.source) {
-            ("glb" | "gltf", RigSource::Gltf(doc)) => doc.write(out, pose, keys),
+            ("glb" | "gltf", RigSource::Gltf(doc)) => {
+                let file_pose = self.file_pose(pose);
+                let keys = match frame {
+                    Some(n) => {
+                        let t = n as f64 / crate::gltf::FRAMES_PER_SECOND;
+                        let mut keys: Vec<(f64, Pose)> = doc
+                            .rigfit_keys()
+                            .into_iter()
+                            .filter(|(k, _)| (k - t).abs() > 1e-6)
+                            .collect();
+                        keys.push((t, file_pose.clone()));
+                        keys.sort_by(|a, b| a.0.total_cmp(&b.0));
+                        keys
+                    }
+                    None => vec![(0.0, file_pose.clone())],
+                };
+                doc.write(out, &file_pose, &keys)
+            }
             ("bvh", RigSource::Bvh(doc)) => {
                 let mut doc = doc.clone();
-                doc.frames.clear();
-                if keys.is_empty() {
-                    doc.set_frame_from_pose(0, pose);
-                } else {
-                    for (k, (_, p)) in keys.iter().enumerate() {
-                        doc.set_frame_from_pose(k, p);
+                match frame {
+                    Some(n) => doc.set_frame_from_pose(n, pose),
+                    None => {
+                        doc.frames.clear();
+                        doc.set_frame_from_pose(0, pose);
                     }
                 }
                 doc.write(out)
             }
-            ("bvh", RigSource::Gltf(_)) => {
-                let poses: Vec<Pose> = if keys.is_empty() {
-                    vec![pose.clone()]
-                } else {
-                    keys.iter().map(|(_, p)| p.clone()).collect()
-                };
-                BvhDocument::from_skeleton(
-                    &self.rig.skeleton,
-                    &poses,
-                    1.0 / crate::gltf::FRAMES_PER_SECOND,
-                )
-                .write(out)
-            }
+            ("bvh", RigSource::Gltf(_)) => BvhDocument::from_skeleton(
+                &self.rig.skeleton,
+                std::slice::from_ref(pose),
+                1.0 / crate::gltf::FRAMES_PER_SECOND,
+            )
+            .write(out),
             ("glb", RigSource::Bvh(_)) => {
                 let mut rig = self.rig.clone();
                 rig.pose = pose.clone();
@@ -134,8 +181,8 @@ impl RigFile {
             _ => Err(FormatError::Unsupported {
                 path: out.to_path_buf(),
                 expected: match self.source {
-                    RigSource::Gltf(_) => ".glb, .gltf or .bvh".into(),
-                    RigSource::Bvh(_) => ".bvh or .glb".into(),
+                    RigSource::Gltf(_) => "an output rig: .glb, .gltf or .bvh".into(),
+                    RigSource::Bvh(_) => "an output rig: .bvh or .glb".into(),
                 },
             }),
         }

@@ -1,4 +1,6 @@
 //! One module per subcommand.
 
+pub mod demo;
 pub mod demo_rig;
 pub mod info;
+pub mod pose;

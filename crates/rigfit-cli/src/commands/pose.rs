@@ -1,0 +1,156 @@
+//! `rigfit pose RIG STROKES`: pose a rigged character so its bones follow 3D strokes.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, anyhow};
+use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem, PoseResult, solve_pose};
+use rigfit_formats::error::write_atomic;
+use rigfit_formats::report::{pose_report, to_text};
+use rigfit_formats::rig_file::{RigFile, RigOptions, StartFrame, read_rig};
+
+/// Which solver to run.
+#[derive(Debug, Clone, Copy, clap::ValueEnum, PartialEq, Eq)]
+pub enum Method {
+    /// rigfit: beautified strokes, rigid multi-start, one chain of bones per stroke.
+    Rigfit,
+    /// The method as published: softassign with annealing over all bones.
+    Paper,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct PoseArgs {
+    /// The rig: .glb / .gltf with a skin, or .bvh.
+    pub rig: PathBuf,
+    /// The strokes JSON (see interfaces.md).
+    pub strokes: PathBuf,
+    /// Output rig: .glb/.gltf (the input with the pose as node rotations and a `rigfit`
+    /// animation key) or .bvh.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Write a JSON report: joint positions and rotations, the bones of each stroke.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Only these joints may move (comma-separated names).
+    #[arg(long, value_delimiter = ',')]
+    pub bones: Option<Vec<String>>,
+    /// Key the pose at this frame of the output, keeping its other keys.
+    #[arg(long)]
+    pub frame: Option<usize>,
+    /// The glTF skin to pose (by name); the first by default.
+    #[arg(long)]
+    pub skin: Option<String>,
+    /// BVH: the frame the solver starts from (a number, or `rest` for all channels zero).
+    #[arg(long)]
+    pub start_frame: Option<String>,
+    /// The solver.
+    #[arg(long, value_enum, default_value = "rigfit")]
+    pub method: Method,
+}
+
+/// Parses `--start-frame`.
+pub fn start_frame(arg: Option<&str>) -> anyhow::Result<StartFrame> {
+    match arg {
+        None => Ok(StartFrame::First),
+        Some("rest") => Ok(StartFrame::Rest),
+        Some(n) => n
+            .parse()
+            .map(StartFrame::Frame)
+            .map_err(|_| anyhow!("--start-frame: expected a frame number or 'rest', got '{n}'")),
+    }
+}
+
+/// Solves the pose for a loaded rig; errors name the file they come from.
+pub fn solve(
+    rig_file: &RigFile,
+    strokes_path: &Path,
+    strokes: &[rigfit_core::Stroke],
+    bones: Option<&[String]>,
+    method: Method,
+) -> anyhow::Result<(PoseResult, f64)> {
+    let rig = &rig_file.rig;
+    let problem = PoseProblem {
+        skeleton: &rig.skeleton,
+        start: &rig.pose,
+        strokes,
+        movable: bones,
+        height: rig.height(),
+    };
+    let options = match method {
+        Method::Rigfit => PoseOptions::default(),
+        Method::Paper => PoseOptions::paper(),
+    };
+    let t0 = Instant::now();
+    let result = solve_pose(&problem, &options).map_err(|e| match e {
+        PoseError::UnknownBone { .. } | PoseError::NoBones | PoseError::NothingMoves => {
+            anyhow!("{}: {e}", rig_file.path.display())
+        }
+        _ => anyhow!("{}: {e}", strokes_path.display()),
+    })?;
+    Ok((result, t0.elapsed().as_secs_f64()))
+}
+
+pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
+    let options = RigOptions {
+        skin: args.skin.clone(),
+        start_frame: start_frame(args.start_frame.as_deref())?,
+    };
+    let rig_file = read_rig(&args.rig, &options)?;
+    if rig_file.rig.meshes.is_empty()
+        && matches!(
+            rig_file.source,
+            rigfit_formats::rig_file::RigSource::Gltf(_)
+        )
+    {
+        tracing::warn!(
+            "{}: the skin has no mesh; posing the skeleton alone",
+            args.rig.display()
+        );
+    }
+    let strokes = rigfit_formats::strokes::read_strokes(&args.strokes)?;
+    let (result, seconds) = solve(
+        &rig_file,
+        &args.strokes,
+        &strokes,
+        args.bones.as_deref(),
+        args.method,
+    )?;
+    if let Some(out) = &args.output {
+        rig_file.write_pose(out, &result.pose, args.frame)?;
+    }
+    if let Some(report) = &args.report {
+        let value = pose_report(
+            &rig_file.rig,
+            &result.pose,
+            &result.stroke_bones,
+            result.iterations,
+            result.energy,
+            seconds,
+        );
+        write_atomic(report, to_text(&value).as_bytes()).with_context(|| "writing the report")?;
+    }
+    let matched = result.stroke_bones.iter().filter(|b| !b.is_empty()).count();
+    println!(
+        "posed {} from {} strokes ({} matched to bones, {} set aside) in {:.1} ms",
+        args.rig.display(),
+        strokes.len(),
+        matched,
+        strokes.len() - matched,
+        seconds * 1000.0
+    );
+    for (i, bones) in result.stroke_bones.iter().enumerate() {
+        let names: Vec<&str> = bones
+            .iter()
+            .map(|&j| rig_file.rig.skeleton.joint(j).name.as_str())
+            .collect();
+        println!(
+            "  stroke {i}: {}",
+            if names.is_empty() {
+                "(stray)".to_string()
+            } else {
+                names.join(" > ")
+            }
+        );
+    }
+    Ok(())
+}
