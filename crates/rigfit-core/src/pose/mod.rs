@@ -494,6 +494,43 @@ impl Solver<'_> {
                     }
                 }
             }
+            // A stroke set aside as a stray may be the real one: give it the chain of an
+            // assigned stroke and set that one aside instead.
+            let set_aside: Vec<usize> = (0..strokes).filter(|&e| assignment[e].is_none()).collect();
+            for e in set_aside {
+                if assignment[e].is_some() {
+                    continue;
+                }
+                let ranked = chains::candidates(self, chains, &vec![false; strokes]);
+                for s in 0..strokes {
+                    if assignment[s].is_none() {
+                        continue;
+                    }
+                    // Stroke `e` takes its best chain among the bones `s` leaves free.
+                    let mut fixed = assignment.clone();
+                    fixed[s] = None;
+                    let mut excluded: Vec<bool> =
+                        (0..strokes).map(|t| t != e && fixed[t].is_none()).collect();
+                    excluded[s] = true;
+                    let trial = chains::greedy(self, chains, &ranked, &fixed, &excluded);
+                    if trial[e].is_none() {
+                        continue;
+                    }
+                    let saved = self.pose.clone();
+                    let trial_layout = self.keep_unexplained_at_start(&trial, root);
+                    self.fit_arclength_steps(&trial_layout, &trial, QUICK_FIT_STEPS);
+                    let trial_score = self.chain_score(&trial, &trial_layout, root);
+                    if trial_score < score {
+                        self.fit_arclength(&trial_layout, &trial);
+                        assignment = trial;
+                        layout = trial_layout;
+                        score = self.chain_score(&assignment, &layout, root);
+                        improved = true;
+                        break;
+                    }
+                    self.pose = saved;
+                }
+            }
             // Give a stroke one of its best candidate chains at the current pose, and let the
             // strokes whose chains that takes pick again.
             let ranked = chains::candidates(self, chains, &vec![false; strokes]);
