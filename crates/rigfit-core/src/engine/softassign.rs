@@ -171,9 +171,9 @@ mod tests {
         let m = softassign(&model, &data, &p, |_, _| true);
         assert_eq!(m.row(0).len(), 1);
         assert_eq!(m.row(0)[0].0, 1);
-        assert!(m.row(0)[0].1 > 0.9);
+        assert!(m.row(0)[0].1 > 0.8, "weight {}", m.row(0)[0].1);
         assert!(m.col_slack[2] > 0.99, "the far point is an outlier");
         let (t, w) = m.target(1, &data).expect("matched");
-        assert!((t.x - 1.01).abs() < 1e-9 && w > 0.9);
+        assert!((t.x - 1.01).abs() < 1e-9 && w > 0.8);
     }
 }

@@ -103,10 +103,8 @@ pub(super) fn candidates(solver: &Solver, chains: &[Vec<usize>], excluded: &[boo
             .collect();
         let list = &mut candidates[s];
         for (c, chain) in chains.iter().enumerate() {
-            if let Some(allowed) = &solver.stroke_allowed[s] {
-                if chain.iter().any(|&b| !allowed[b]) {
-                    continue;
-                }
+            if !solver.stroke_may_cover(s, chain) {
+                continue;
             }
             let (xs, len) = &samples[c];
             let mismatch = (stroke_len - len) / len.max(1e-12);

@@ -598,6 +598,7 @@ impl Solver<'_> {
                 let mut options: Vec<&Vec<usize>> = chains
                     .iter()
                     .filter(|c| **c != current && c.iter().all(|&b| !used[b]))
+                    .filter(|c| self.stroke_may_cover(s, c))
                     .filter(|c| {
                         c.iter().any(|b| current.contains(b)) || (length(c) - lc).abs() < 0.15 * lc
                     })
@@ -630,6 +631,13 @@ impl Solver<'_> {
             }
         }
         (assignment, layout, score)
+    }
+
+    /// Whether stroke `s` may cover `chain` (a stroke pinned to bones covers only those).
+    fn stroke_may_cover(&self, s: usize, chain: &[usize]) -> bool {
+        self.stroke_allowed[s]
+            .as_ref()
+            .is_none_or(|allowed| chain.iter().all(|&b| allowed[b]))
     }
 
     /// How well a chain fit explains the strokes: the mean squared stroke residual (strays

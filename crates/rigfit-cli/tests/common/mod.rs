@@ -4,18 +4,11 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+pub mod pose_suites;
+
 /// Path of a real test asset (RIGFIT_DATA, or ../shared/data beside the repository).
 pub fn data(rel: &str) -> PathBuf {
-    let root = std::env::var("RIGFIT_DATA").unwrap_or_else(|_| {
-        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string()
-    });
-    let p = PathBuf::from(root).join(rel);
-    assert!(
-        p.exists(),
-        "test asset {} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh",
-        p.display()
-    );
-    p
+    pose_suites::asset(rel)
 }
 
 /// The malformed-input corpus.

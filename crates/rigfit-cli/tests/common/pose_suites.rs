@@ -1,0 +1,108 @@
+//! The posing ground-truth suites on the real assets, shared by the accuracy test and the
+//! accuracy table example: 01_01.bvh at 10 frames spread over the clip from its rest pose;
+//! BCN_Epileptic.glb and Testwuson.glb at 5 times of their first clip from their stored pose;
+//! the WebXR hand with 5 finger poses set here.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+use rigfit_core::{Pose, Quat, Rig};
+use rigfit_formats::rig_file::{RigOptions, StartFrame, read_rig};
+
+/// Path of a real test asset (RIGFIT_DATA, or ../shared/data beside the repository).
+pub fn asset(rel: &str) -> PathBuf {
+    let root = std::env::var("RIGFIT_DATA").unwrap_or_else(|_| {
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string()
+    });
+    let p = PathBuf::from(root).join(rel);
+    assert!(
+        p.exists(),
+        "test asset {} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh",
+        p.display()
+    );
+    p
+}
+
+/// One suite: a rig, the pose the solver starts from, and the true poses to recover.
+pub struct Suite {
+    pub name: String,
+    pub rig: Rig,
+    pub start: Pose,
+    pub truths: Vec<Pose>,
+}
+
+/// Finger poses for the hand: every phalanx curled by a seeded random angle.
+fn hand_poses(rig: &Rig, count: u64) -> Vec<Pose> {
+    (0..count)
+        .map(|i| {
+            let mut pose = rig.pose.clone();
+            let mut state = 99 + i * 7919;
+            let mut random = || {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (state >> 11) as f64 / (1u64 << 53) as f64
+            };
+            for (j, joint) in rig.skeleton.joints().iter().enumerate() {
+                let curl = if joint.name.contains("metacarpal") {
+                    0.15
+                } else {
+                    1.1
+                };
+                if joint.name.contains("phalanx") || joint.name.contains("metacarpal") {
+                    pose.local[j].rotation *=
+                        Quat::from_euler_angles(curl * random(), 0.0, 0.3 * (random() - 0.5));
+                }
+            }
+            pose
+        })
+        .collect()
+}
+
+/// All suites.
+pub fn suites() -> Vec<Suite> {
+    let mut out = Vec::new();
+    let bvh = read_rig(
+        &asset("cmu/01_01.bvh"),
+        &RigOptions {
+            start_frame: StartFrame::Rest,
+            ..Default::default()
+        },
+    )
+    .expect("01_01.bvh");
+    let anim = &bvh.rig.animations[0];
+    let frames = anim.frame_count();
+    let dt = anim.frame_time.unwrap_or(1.0 / 120.0);
+    let truths = (0..10)
+        .map(|i| anim.sample(&bvh.rig.pose, (i * (frames - 1) / 9) as f64 * dt))
+        .collect();
+    out.push(Suite {
+        name: "01_01.bvh".into(),
+        start: bvh.rig.pose.clone(),
+        rig: bvh.rig,
+        truths,
+    });
+    for file in ["assimp/BCN_Epileptic.glb", "assimp/Testwuson.glb"] {
+        let r = read_rig(&asset(file), &RigOptions::default()).expect("rig");
+        let anim = &r.rig.animations[0];
+        let (s, e) = (anim.start(), anim.end());
+        let truths = (0..5)
+            .map(|i| anim.sample(&r.rig.pose, s + (e - s) * (i as f64 + 0.5) / 5.0))
+            .collect();
+        out.push(Suite {
+            name: file.into(),
+            start: r.rig.pose.clone(),
+            rig: r.rig,
+            truths,
+        });
+    }
+    let hand = read_rig(&asset("webxr_hand/left.glb"), &RigOptions::default()).expect("hand");
+    let truths = hand_poses(&hand.rig, 5);
+    out.push(Suite {
+        name: "webxr_hand/left.glb".into(),
+        start: hand.rig.pose.clone(),
+        rig: hand.rig,
+        truths,
+    });
+    out
+}
