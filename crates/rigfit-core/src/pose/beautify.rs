@@ -104,9 +104,16 @@ mod tests {
             .map(|i| Point3::new(i as f64 / 1000.0, noise(), noise()))
             .collect();
         let clean = beautify(&jittery, 0.05);
-        let rms = |p: &[Point3]| (p.iter().map(|p| p.y * p.y + p.z * p.z).sum::<f64>() / p.len() as f64).sqrt();
+        let rms = |p: &[Point3]| {
+            (p.iter().map(|p| p.y * p.y + p.z * p.z).sum::<f64>() / p.len() as f64).sqrt()
+        };
         // Uniform noise of +-0.01 per axis: RMS about 0.008 off the line before.
-        assert!(rms(&clean) < 0.35 * rms(&jittery), "RMS {} -> {}", rms(&jittery), rms(&clean));
+        assert!(
+            rms(&clean) < 0.35 * rms(&jittery),
+            "RMS {} -> {}",
+            rms(&jittery),
+            rms(&clean)
+        );
         assert!((clean.last().expect("points").x - 1.0).abs() < 0.01);
     }
 }

@@ -25,6 +25,10 @@ const HYPOTHESIS_BEND_WEIGHT: f64 = 2e-3;
 /// Levenberg-Marquardt steps used to judge a trial assignment in the local search.
 const QUICK_FIT_STEPS: usize = 8;
 
+/// A chain is tried for a stroke in the local search when its fit at the current pose is
+/// within this factor of the stroke's own chain's.
+const EJECTION_COST_RATIO: f64 = 3.0;
+
 /// Weight of a joint-limit violation (radians) in the fit.
 const LIMIT_WEIGHT: f64 = 100.0;
 
@@ -336,7 +340,9 @@ impl Solver<'_> {
             }
             // Local search on the promising hypotheses only.
             fits.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let cutoff = fits.first().map_or(0.0, |f| 4.0 * f.0);
+            // Headings that converged to the same assignment are one hypothesis.
+            fits.dedup_by(|a, b| a.2 == b.2);
+            let cutoff = fits.first().map_or(0.0, |f| 2.0 * f.0);
             let mut best: Option<(f64, Pose, Vec<chains::Assignment>, DofLayout)> = None;
             for (score, pose, assignment, layout) in
                 fits.into_iter().filter(|f| f.0 <= cutoff).take(2)
@@ -472,8 +478,9 @@ impl Solver<'_> {
                     let (Some((cs, _)), Some((ct, _))) = (&assignment[s], &assignment[t]) else {
                         continue;
                     };
+                    // Mirror-image limbs: chains of as many bones and about the same length.
                     let (ls, lt) = (length(cs), length(ct));
-                    if (ls - lt).abs() > 0.25 * ls.max(lt) {
+                    if cs.len() != ct.len() || (ls - lt).abs() > 0.15 * ls.max(lt) {
                         continue;
                     }
                     let mut trial = assignment.clone();
@@ -538,11 +545,18 @@ impl Solver<'_> {
                 let Some((current, _)) = assignment[s].clone() else {
                     continue;
                 };
+                // Only chains that lie about as close to the stroke as its own does.
+                let own = ranked[s]
+                    .iter()
+                    .find(|(_, c, _)| chains[*c] == current)
+                    .map_or(f64::INFINITY, |e| e.0);
                 let picks: Vec<(usize, bool)> = ranked[s]
                     .iter()
-                    .filter(|(_, c, _)| chains[*c] != current)
+                    .filter(|(cost, c, _)| {
+                        chains[*c] != current && *cost < EJECTION_COST_RATIO * own
+                    })
                     .map(|&(_, c, r)| (c, r))
-                    .take(3)
+                    .take(2)
                     .collect();
                 for (c, reversed) in picks {
                     let chain = &chains[c];

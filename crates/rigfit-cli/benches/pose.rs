@@ -1,0 +1,82 @@
+//! Posing speed: a 55-joint rig (BCN_Epileptic: 54 skin joints and its root node) with 10
+//! strokes of 100 points, and the built-in humanoid with its 6 limb strokes. The goal is
+//! live feedback while a stroke is drawn.
+//!
+//! `cargo bench -p rigfit-cli --bench pose`
+
+#[path = "../tests/common/pose_suites.rs"]
+#[allow(dead_code)]
+mod pose_suites;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use rand::SeedableRng;
+use rigfit_core::pose::beautify::resample;
+use rigfit_core::pose::cases::{CaseOptions, make_case};
+use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
+use rigfit_core::{Pose, Rig, Stroke};
+use rigfit_formats::rig_file::{RigOptions, read_rig};
+
+/// `count` strokes of exactly `points` points drawn from `truth`, longest chains first.
+fn draw_strokes(rig: &Rig, truth: &Pose, count: usize, points: usize) -> Vec<Stroke> {
+    let height = rig.height();
+    let options = CaseOptions {
+        min_chain_length: 0.03,
+        ..Default::default()
+    };
+    let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+    let mut case = make_case(&rig.skeleton, truth, height, &options, &mut rng).strokes;
+    case.sort_by(|a, b| b.length().total_cmp(&a.length()));
+    case.truncate(count);
+    for s in &mut case {
+        let spacing = s.length() / (points - 1) as f64;
+        s.points = resample(&s.points, spacing * 0.999);
+        s.points.truncate(points);
+    }
+    case
+}
+
+fn bench(c: &mut Criterion) {
+    let file = read_rig(
+        &pose_suites::asset("assimp/BCN_Epileptic.glb"),
+        &RigOptions::default(),
+    )
+    .expect("rig");
+    let rig = &file.rig;
+    assert_eq!(rig.skeleton.len(), 55);
+    let truth = rig.animations[0].sample(&rig.pose, 1.5);
+    let strokes = draw_strokes(rig, &truth, 10, 100);
+    assert_eq!(strokes.len(), 10);
+    assert!(strokes.iter().all(|s| s.points.len() == 100));
+    let problem = PoseProblem {
+        skeleton: &rig.skeleton,
+        start: &rig.pose,
+        strokes: &strokes,
+        movable: None,
+        height: rig.height(),
+    };
+    let mut group = c.benchmark_group("pose");
+    group.sample_size(20);
+    group.bench_function("bcn_55_joints_10_strokes_x100", |b| {
+        b.iter(|| solve_pose(&problem, &PoseOptions::default()).expect("solves"))
+    });
+    group.bench_function("bcn_55_joints_10_strokes_x100_paper", |b| {
+        b.iter(|| solve_pose(&problem, &PoseOptions::paper()).expect("solves"))
+    });
+    let humanoid = rigfit_core::humanoid::humanoid();
+    let truth = humanoid.animations[0].sample(&humanoid.pose, 1.0);
+    let strokes = draw_strokes(&humanoid, &truth, 6, 100);
+    let problem = PoseProblem {
+        skeleton: &humanoid.skeleton,
+        start: &humanoid.pose,
+        strokes: &strokes,
+        movable: None,
+        height: humanoid.height(),
+    };
+    group.bench_function("humanoid_26_joints_6_strokes_x100", |b| {
+        b.iter(|| solve_pose(&problem, &PoseOptions::default()).expect("solves"))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
