@@ -376,9 +376,11 @@ impl BvhDocument {
         }
     }
 
-    /// The motion as an animation named "motion": for each joint (End Sites aside) a
+    /// The motion as an animation named "motion": for each joint with rotation channels a
     /// linear rotation channel with one key per frame at `i * frame_time`, and a
-    /// translation channel for joints with position channels.
+    /// translation channel for joints with position channels. Joints without channels
+    /// (End Sites, fixed joints) never move and get no keys, so the animation's size is that
+    /// of the motion data.
     pub fn animation(&self) -> Animation {
         let times: Vec<f64> = (0..self.frames.len())
             .map(|i| i as f64 * self.frame_time)
@@ -386,7 +388,7 @@ impl BvhDocument {
         let starts = self.channel_starts();
         let mut channels = Vec::new();
         for (j, joint) in self.joints.iter().enumerate() {
-            if joint.end_site && joint.channels.is_empty() {
+            if joint.channels.is_empty() {
                 continue;
             }
             let n = joint.channels.len();
@@ -411,13 +413,15 @@ impl BvhDocument {
                     quat_to_xyzw(&q)
                 })
                 .collect();
-            channels.push(AnimationChannel {
-                joint: j,
-                target: ChannelTarget::Rotation,
-                interpolation: Interpolation::Linear,
-                times: times.clone(),
-                values: rotations,
-            });
+            if joint.channels.iter().any(|c| c.is_rotation()) {
+                channels.push(AnimationChannel {
+                    joint: j,
+                    target: ChannelTarget::Rotation,
+                    interpolation: Interpolation::Linear,
+                    times: times.clone(),
+                    values: rotations,
+                });
+            }
             if joint.channels.iter().any(|c| c.is_position()) {
                 channels.push(AnimationChannel {
                     joint: j,

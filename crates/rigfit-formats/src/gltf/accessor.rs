@@ -5,9 +5,12 @@ use serde_json::{Value, json};
 
 use crate::error::ParseError;
 
-/// The largest accessor rigfit reads, in scalar components (a guard against a lying header
-/// allocating gigabytes for an accessor without a buffer view).
+/// The largest accessor rigfit reads, in scalar components. Accessors with a buffer view
+/// are also bounded by the bytes really there (checked before allocating).
 const MAX_COMPONENTS: usize = 1 << 28;
+/// The largest accessor without a buffer view (all zeros, possibly with sparse values): a
+/// guard against a few bytes of JSON asking for gigabytes.
+const MAX_VIEWLESS_COMPONENTS: usize = 1 << 22;
 
 /// A JSON field as an index or count.
 pub(crate) fn index_field(obj: &Value, key: &str, path: &str) -> Result<Option<usize>, ParseError> {
@@ -232,7 +235,15 @@ pub(crate) fn read_accessor(
             &path,
             matrix_columns,
         )?,
-        None => vec![0.0; count * components],
+        None => {
+            if count * components > MAX_VIEWLESS_COMPONENTS {
+                return Err(ParseError::new(
+                    &path,
+                    format!("count {count} is too large for an accessor without a bufferView"),
+                ));
+            }
+            vec![0.0; count * components]
+        }
     };
     if let Some(sparse) = acc.get("sparse") {
         let sp = format!("{path}.sparse");

@@ -1,0 +1,8 @@
+//! PLY reader: any bytes must give a mesh or an error, never a panic, hang or huge allocation.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let _ = rigfit_formats::ply::parse_ply(data);
+});
