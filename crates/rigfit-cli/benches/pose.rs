@@ -5,7 +5,6 @@
 //! `cargo bench -p rigfit-cli --bench pose`
 
 #[path = "../tests/common/pose_suites.rs"]
-#[allow(dead_code)]
 mod pose_suites;
 
 use criterion::{Criterion, criterion_group, criterion_main};

@@ -7,11 +7,9 @@
 #[path = "../tests/common/pose_suites.rs"]
 mod pose_suites;
 
-use std::time::Instant;
-
-use rand::SeedableRng;
-use rigfit_core::pose::cases::{CaseOptions, limb_motion, make_case, mean_joint_error};
-use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
+use pose_suites::solve_cases;
+use rigfit_core::pose::PoseOptions;
+use rigfit_core::pose::cases::CaseOptions;
 
 fn main() {
     let methods: Vec<(&str, PoseOptions)> = vec![
@@ -68,45 +66,18 @@ fn main() {
             let mut motion: f64 = 0.0;
             let mut time = 0.0;
             for suite in &suites {
-                let height = suite.rig.height();
-                for (t, truth) in suite.truths.iter().enumerate() {
-                    let mut rng = rand::rngs::StdRng::seed_from_u64(1000 + t as u64);
-                    let case = make_case(&suite.rig.skeleton, truth, height, copts, &mut rng);
-                    let problem = PoseProblem {
-                        skeleton: &suite.rig.skeleton,
-                        start: &suite.start,
-                        strokes: &case.strokes,
-                        movable: None,
-                        height,
-                    };
-                    let t0 = Instant::now();
-                    let result = solve_pose(&problem, mopts).expect("solves");
-                    time += t0.elapsed().as_secs_f64();
-                    let err = mean_joint_error(
-                        &suite.rig.skeleton,
-                        &result.pose,
-                        truth,
-                        &case.drawn_joints,
-                        height,
-                    );
+                for (t, outcome) in solve_cases(suite, mopts, copts).iter().enumerate() {
                     if std::env::var("VERBOSE").is_ok() {
                         eprintln!(
                             "{} #{t} {mname} / {sname}: {:.2}% ({} iterations)",
                             suite.name,
-                            err * 100.0,
-                            result.iterations
+                            outcome.error * 100.0,
+                            outcome.iterations
                         );
                     }
-                    errors.push(err);
-                    for chain in &case.dropped_chains {
-                        motion = motion.max(limb_motion(
-                            &suite.rig.skeleton,
-                            &suite.start,
-                            &result.pose,
-                            chain,
-                            height,
-                        ));
-                    }
+                    errors.push(outcome.error);
+                    motion = motion.max(outcome.undrawn_motion);
+                    time += outcome.seconds;
                 }
             }
             let mean = errors.iter().sum::<f64>() / errors.len() as f64;

@@ -5,47 +5,21 @@
 
 mod common;
 
-use common::pose_suites;
-use rand::SeedableRng;
-use rigfit_core::pose::cases::{CaseOptions, limb_motion, make_case, mean_joint_error};
-use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
+use common::pose_suites::{self, solve_cases};
+use rigfit_core::pose::PoseOptions;
+use rigfit_core::pose::cases::CaseOptions;
 
 /// Solves every case of every suite; returns the errors and the largest undrawn-limb motion.
 fn run(options: &PoseOptions, scenario: &CaseOptions) -> (Vec<f64>, f64) {
-    let mut errors = Vec::new();
-    let mut motion: f64 = 0.0;
-    for suite in pose_suites::suites() {
-        let height = suite.rig.height();
-        for (t, truth) in suite.truths.iter().enumerate() {
-            let mut rng = rand::rngs::StdRng::seed_from_u64(1000 + t as u64);
-            let case = make_case(&suite.rig.skeleton, truth, height, scenario, &mut rng);
-            let problem = PoseProblem {
-                skeleton: &suite.rig.skeleton,
-                start: &suite.start,
-                strokes: &case.strokes,
-                movable: None,
-                height,
-            };
-            let result = solve_pose(&problem, options).expect("solves");
-            errors.push(mean_joint_error(
-                &suite.rig.skeleton,
-                &result.pose,
-                truth,
-                &case.drawn_joints,
-                height,
-            ));
-            for chain in &case.dropped_chains {
-                motion = motion.max(limb_motion(
-                    &suite.rig.skeleton,
-                    &suite.start,
-                    &result.pose,
-                    chain,
-                    height,
-                ));
-            }
-        }
-    }
-    (errors, motion)
+    let outcomes: Vec<_> = pose_suites::suites()
+        .iter()
+        .flat_map(|s| solve_cases(s, options, scenario))
+        .collect();
+    let motion = outcomes
+        .iter()
+        .map(|o| o.undrawn_motion)
+        .fold(0.0, f64::max);
+    (outcomes.iter().map(|o| o.error).collect(), motion)
 }
 
 fn share_below(errors: &[f64], bound: f64) -> f64 {

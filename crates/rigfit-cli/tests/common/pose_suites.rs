@@ -6,6 +6,9 @@
 
 use std::path::PathBuf;
 
+use rand::SeedableRng;
+use rigfit_core::pose::cases::{CaseOptions, limb_motion, make_case, mean_joint_error};
+use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
 use rigfit_core::{Pose, Quat, Rig};
 use rigfit_formats::rig_file::{RigOptions, StartFrame, read_rig};
 
@@ -105,4 +108,52 @@ pub fn suites() -> Vec<Suite> {
         truths,
     });
     out
+}
+
+/// What one case gave.
+#[derive(Debug, Clone, Copy)]
+pub struct Outcome {
+    /// Mean error over drawn joints, as a fraction of the height.
+    pub error: f64,
+    /// How far undrawn limbs moved from their start pose (fraction of the height; 0 when
+    /// every limb was drawn).
+    pub undrawn_motion: f64,
+    pub seconds: f64,
+    pub iterations: usize,
+}
+
+/// Draws every case of `suite` for `scenario` (seeded per case) and solves it.
+pub fn solve_cases(suite: &Suite, options: &PoseOptions, scenario: &CaseOptions) -> Vec<Outcome> {
+    let skeleton = &suite.rig.skeleton;
+    let height = suite.rig.height();
+    suite
+        .truths
+        .iter()
+        .enumerate()
+        .map(|(t, truth)| {
+            let mut rng = rand::rngs::StdRng::seed_from_u64(1000 + t as u64);
+            let case = make_case(skeleton, truth, height, scenario, &mut rng);
+            let problem = PoseProblem {
+                skeleton,
+                start: &suite.start,
+                strokes: &case.strokes,
+                movable: None,
+                height,
+            };
+            let t0 = std::time::Instant::now();
+            let result = solve_pose(&problem, options).expect("solves");
+            let seconds = t0.elapsed().as_secs_f64();
+            let undrawn_motion = case
+                .dropped_chains
+                .iter()
+                .map(|chain| limb_motion(skeleton, &suite.start, &result.pose, chain, height))
+                .fold(0.0, f64::max);
+            Outcome {
+                error: mean_joint_error(skeleton, &result.pose, truth, &case.drawn_joints, height),
+                undrawn_motion,
+                seconds,
+                iterations: result.iterations,
+            }
+        })
+        .collect()
 }
