@@ -54,6 +54,11 @@ impl DofLayout {
         self.len == 0
     }
 
+    /// The number of joints the layout covers.
+    pub fn joint_count(&self) -> usize {
+        self.offsets.len()
+    }
+
     /// The first parameter of a joint, if it has any.
     pub fn offset(&self, joint: usize) -> Option<usize> {
         self.offsets[joint]
@@ -109,6 +114,20 @@ impl ForwardKinematics {
             origin: Vec::with_capacity(n),
             parent: Vec::with_capacity(n),
         };
+        fk.update(skeleton, pose);
+        fk
+    }
+
+    /// Runs forward kinematics for `pose` again, reusing the storage (the same as
+    /// [`Self::new`]).
+    pub fn update(&mut self, skeleton: &Skeleton, pose: &Pose) {
+        let fk = self;
+        fk.world.clear();
+        fk.frame_linear.clear();
+        fk.frame_linear_inv.clear();
+        fk.parent_linear.clear();
+        fk.origin.clear();
+        fk.parent.clear();
         for (i, joint) in skeleton.joints().iter().enumerate() {
             let local = &pose.local[i];
             let parent_world = joint
@@ -131,7 +150,6 @@ impl ForwardKinematics {
             fk.world.push(world);
             fk.parent.push(joint.parent);
         }
-        fk
     }
 
     /// World matrices of all joints.
@@ -147,6 +165,43 @@ impl ForwardKinematics {
     /// World position of a joint's origin.
     pub fn position(&self, joint: usize) -> Point3 {
         Point3::from(self.origin[joint])
+    }
+
+    /// The number of joints.
+    pub fn len(&self) -> usize {
+        self.world.len()
+    }
+
+    /// Whether there are no joints.
+    pub fn is_empty(&self) -> bool {
+        self.world.is_empty()
+    }
+
+    /// The parent of a joint.
+    pub fn parent(&self, joint: usize) -> Option<usize> {
+        self.parent[joint]
+    }
+
+    /// World position of a joint's origin, `o_j`, as a vector.
+    pub fn origin(&self, joint: usize) -> &Vector3 {
+        &self.origin[joint]
+    }
+
+    /// Linear part of `A_j = W_parent * T_j * R_j`: a rotation increment `delta` moves a
+    /// carried point `p` by `A_j (delta x A_j^-1 (p - o_j))`.
+    pub fn frame_linear(&self, joint: usize) -> &Matrix3 {
+        &self.frame_linear[joint]
+    }
+
+    /// Inverse of [`Self::frame_linear`] (zero when that is singular).
+    pub fn frame_linear_inv(&self, joint: usize) -> &Matrix3 {
+        &self.frame_linear_inv[joint]
+    }
+
+    /// Linear part of the parent's world transform (identity for roots): the Jacobian of a
+    /// carried point with respect to a free joint's translation.
+    pub fn parent_linear(&self, joint: usize) -> &Matrix3 {
+        &self.parent_linear[joint]
     }
 
     /// A point given in a joint's local frame, in world space.
@@ -272,6 +327,23 @@ mod tests {
         let fk = ForwardKinematics::new(&s, &pose);
         for (a, b) in fk.world_matrices().iter().zip(s.world_matrices(&pose)) {
             assert!((a - b).norm() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn update_matches_new() {
+        let s = test_skeleton();
+        let mut pose = s.rest_pose();
+        let mut fk = ForwardKinematics::new(&s, &pose);
+        pose.local[2].rotation = Quat::from_euler_angles(0.4, -0.1, 0.2);
+        fk.update(&s, &pose);
+        let fresh = ForwardKinematics::new(&s, &pose);
+        assert_eq!(fk.world_matrices(), fresh.world_matrices());
+        for j in 0..s.len() {
+            assert_eq!(fk.frame_linear(j), fresh.frame_linear(j));
+            assert_eq!(fk.frame_linear_inv(j), fresh.frame_linear_inv(j));
+            assert_eq!(fk.parent_linear(j), fresh.parent_linear(j));
+            assert_eq!(fk.origin(j), fresh.origin(j));
         }
     }
 

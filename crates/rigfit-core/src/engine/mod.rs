@@ -5,10 +5,21 @@
 //! A model only has to say where its points are and how they move with its parameters
 //! (a [`crate::kinematics::ForwardKinematics`] for skeletons); the strategies here turn
 //! (data, model points, temperature) into sparse weights, and [`normal_equations`] turns
-//! weighted residuals into a parameter step.
+//! weighted residuals into a parameter step. For skeletons, [`subtree_moments`] sums the
+//! points' normal equations in closed form per joint subtree, and
+//! [`skeleton_normal_equations`] solves them by the articulated-body recursion
+//! ([`articulated`]) or without fill-in ([`tree_solver`]).
 
+pub mod articulated;
 pub mod normal_equations;
+pub mod skeleton_normal_equations;
 pub mod softassign;
+pub mod subtree_moments;
+pub mod tree_solver;
 
-pub use normal_equations::NormalEquations;
+pub use articulated::ArticulatedNormalEquations;
+pub use normal_equations::{NormalEquations, NormalSink};
+pub use skeleton_normal_equations::SkeletonNormalEquations;
 pub use softassign::{MatchMatrix, SoftassignParams, softassign};
+pub use subtree_moments::SubtreeMoments;
+pub use tree_solver::TreeNormalEquations;

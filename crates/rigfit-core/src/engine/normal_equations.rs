@@ -4,7 +4,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::math::Vector3;
+use crate::math::{Matrix3, Vector3};
 
 /// Accumulated `J^T J` (upper triangle, row-major), `J^T r` and the cost `r^T r`.
 #[derive(Clone, Debug)]
@@ -77,6 +77,70 @@ impl NormalEquations {
         }
         let chol = nalgebra::Cholesky::new(a)?;
         Some(-chol.solve(&self.jtr))
+    }
+}
+
+/// Where Gauss-Newton sums go: `J^T W J`, `J^T W r` and the cost `r^T W r`, entry by entry,
+/// so one assembly serves the dense [`NormalEquations`] and the tree-structured
+/// [`crate::engine::TreeNormalEquations`].
+pub trait NormalSink {
+    /// Adds `v` to the symmetric entry `(i, j)` of `J^T W J` (each unordered pair once).
+    fn add_jtj(&mut self, i: usize, j: usize, v: f64);
+    /// Adds `v` to entry `i` of `J^T W r`.
+    fn add_jtr(&mut self, i: usize, v: f64);
+    /// Adds `c` to the cost.
+    fn add_cost(&mut self, c: f64);
+    /// The accumulated cost.
+    fn cost(&self) -> f64;
+
+    /// Adds `scale * m[(ia, ib)]` to the entry `(b + ib, a + ia)` of `J^T W J` for
+    /// `ia < na`, `ib < nb`; with `diagonal` (the same parameters on both sides), only for
+    /// `ia <= ib`.
+    fn add_jtj_block(
+        &mut self,
+        (a, na): (usize, usize),
+        (b, nb): (usize, usize),
+        m: &Matrix3,
+        scale: f64,
+        diagonal: bool,
+    ) {
+        for ib in 0..nb {
+            for ia in 0..if diagonal { ib + 1 } else { na } {
+                self.add_jtj(b + ib, a + ia, scale * m[(ia, ib)]);
+            }
+        }
+    }
+
+    /// Adds a scalar residual `r` with weight `w` that depends on one parameter with
+    /// derivative `d` (as [`NormalEquations::add_scalar`]).
+    fn add_scalar(&mut self, r: f64, w: f64, col: usize, d: f64) {
+        self.add_cost(w * r * r);
+        self.add_jtr(col, w * d * r);
+        self.add_jtj(col, col, w * d * d);
+    }
+}
+
+impl NormalSink for NormalEquations {
+    /// Dense upper-triangle storage: entry `(min(i, j), max(i, j))`.
+    fn add_jtj(&mut self, i: usize, j: usize, v: f64) {
+        let (lo, hi) = if i <= j { (i, j) } else { (j, i) };
+        self.jtj[lo * self.n + hi] += v;
+    }
+
+    fn add_jtr(&mut self, i: usize, v: f64) {
+        self.jtr[i] += v;
+    }
+
+    fn add_cost(&mut self, c: f64) {
+        self.cost += c;
+    }
+
+    fn cost(&self) -> f64 {
+        self.cost
+    }
+
+    fn add_scalar(&mut self, r: f64, w: f64, col: usize, d: f64) {
+        NormalEquations::add_scalar(self, r, w, col, d);
     }
 }
 

@@ -10,7 +10,9 @@ pub mod bones;
 pub mod cases;
 mod chains;
 
-use crate::engine::{MatchMatrix, NormalEquations, SoftassignParams, softassign};
+use crate::engine::{
+    MatchMatrix, NormalSink, SkeletonNormalEquations, SoftassignParams, SubtreeMoments, softassign,
+};
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Matrix4, Point3, Quat, Trs, Vector3, translation_part};
 use crate::skeleton::{JointDof, Pose, Skeleton};
@@ -178,6 +180,15 @@ struct Solver<'a> {
     prior_weight: f64,
     /// The Levenberg-Marquardt damping, adapted from step to step.
     lambda: f64,
+    /// Buffers reused by the Levenberg-Marquardt steps: the targets of `align`, the model
+    /// points' subtree moments, the normal equations of the last layout, the forward
+    /// kinematics of the last pose reached (with that pose), and a trial pose with its
+    /// forward kinematics.
+    targets: Vec<Option<(Point3, f64)>>,
+    moments: SubtreeMoments,
+    normal: Option<SkeletonNormalEquations>,
+    fk: Option<(Pose, ForwardKinematics)>,
+    trial: Option<(Pose, ForwardKinematics)>,
 }
 
 /// Poses `problem.skeleton` so its bones lie along the strokes.
@@ -280,6 +291,11 @@ pub fn solve_pose(problem: &PoseProblem, options: &PoseOptions) -> Result<PoseRe
         iterations: 0,
         prior_weight: options.prior_weight,
         lambda: 1e-3,
+        targets: Vec::new(),
+        moments: SubtreeMoments::new(),
+        normal: None,
+        fk: None,
+        trial: None,
     };
     solver.run()
 }
@@ -859,46 +875,52 @@ impl Solver<'_> {
     /// One Levenberg-Marquardt step on eq. (1) with `omega` fixed: each model point pulled
     /// to the weighted mean of its matches (Dewaele eq. 20 form), plus `Phi(p)`.
     fn align(&mut self, layout: &DofLayout, matches: &MatchMatrix) {
-        let targets: Vec<Option<(Point3, f64)>> = (0..matches.rows())
-            .map(|k| matches.target(k, &self.data))
-            .collect();
+        let mut targets = std::mem::take(&mut self.targets);
+        targets.clear();
+        targets.extend((0..matches.rows()).map(|k| matches.target(k, &self.data)));
         self.align_to(layout, &targets);
+        self.targets = targets;
     }
 
-    /// The weighted cost of `pose`: model point `k` pulled to `targets[k]`, plus `Phi(p)` and
-    /// joint-limit penalties. With `ne`, also accumulates the normal equations.
+    /// The weighted cost of `pose` (whose forward kinematics is `fk`): model point `k`
+    /// pulled to `targets[k]`, plus `Phi(p)` and joint-limit penalties. With `ne`, also
+    /// accumulates the normal equations (the points' through their subtree moments).
     fn objective(
         &self,
         layout: &DofLayout,
         targets: &[Option<(Point3, f64)>],
         pose: &Pose,
-        mut ne: Option<&mut NormalEquations>,
+        fk: &ForwardKinematics,
+        mut ne: Option<(&mut SubtreeMoments, &mut SkeletonNormalEquations)>,
     ) -> f64 {
-        let fk = ForwardKinematics::new(self.skeleton, pose);
         let mut cost = 0.0;
-        let mut cols = Vec::with_capacity(64);
+        if let Some((moments, _)) = ne.as_mut() {
+            moments.reset(self.skeleton.len());
+        }
+        let inv_height = 1.0 / self.height;
         for (k, mp) in self.model.points.iter().enumerate() {
             let Some((target, w)) = targets[k] else {
                 continue;
             };
             let p = fk.point(mp.joint, &mp.local);
-            let r = (p - target) / self.height;
-            match ne.as_deref_mut() {
-                Some(ne) => {
-                    cols.clear();
-                    fk.point_jacobian(layout, mp.joint, &p, |c, v| cols.push((c, v / self.height)));
-                    ne.add_point(&r, w, &cols);
-                }
+            let r = (p - target) * inv_height;
+            match ne.as_mut() {
+                Some((moments, _)) => moments.add_point(fk, mp.joint, &p, &r, w),
                 None => cost += w * r.norm_squared(),
             }
         }
+        if let Some((moments, ne)) = ne.as_mut() {
+            ne.assemble_points(moments, fk, inv_height);
+        }
         // Phi(p): rotation vectors away from the start pose, per joint and axis.
         let prior = self.prior_weight;
-        let mut scalar =
-            |ne: &mut Option<&mut NormalEquations>, r: f64, w: f64, col: usize| match ne {
-                Some(ne) => ne.add_scalar(r, w, col, 1.0),
-                None => cost += w * r * r,
-            };
+        let mut scalar = |ne: &mut Option<(&mut SubtreeMoments, &mut SkeletonNormalEquations)>,
+                          r: f64,
+                          w: f64,
+                          col: usize| match ne {
+            Some((_, ne)) => ne.add_scalar(r, w, col, 1.0),
+            None => cost += w * r * r,
+        };
         for j in 0..self.skeleton.len() {
             let Some(o) = layout.offset(j) else { continue };
             let delta =
@@ -921,7 +943,7 @@ impl Solver<'_> {
             }
         }
         match ne {
-            Some(ne) => ne.cost,
+            Some((_, ne)) => ne.cost(),
             None => cost,
         }
     }
@@ -932,24 +954,67 @@ impl Solver<'_> {
         if layout.is_empty() {
             return 0.0;
         }
-        let mut ne = NormalEquations::new(layout.len());
-        let cost = self.objective(layout, targets, &self.pose, Some(&mut ne));
+        let skeleton = self.skeleton;
+        let parent = |j: usize| skeleton.joint(j).parent;
+        let mut ne = match self.normal.take() {
+            Some(ne) if ne.is_for(layout) => ne,
+            Some(mut ne) => {
+                ne.set_layout(layout, parent);
+                ne
+            }
+            None => SkeletonNormalEquations::new(layout, parent),
+        };
+        ne.clear();
+        let (mut fk_pose, mut fk) = match self.fk.take() {
+            Some((mut p, mut fk)) => {
+                if p != self.pose {
+                    fk.update(skeleton, &self.pose);
+                    p.clone_from(&self.pose);
+                }
+                (p, fk)
+            }
+            None => (
+                self.pose.clone(),
+                ForwardKinematics::new(skeleton, &self.pose),
+            ),
+        };
+        let (mut trial, mut trial_fk) = self
+            .trial
+            .take()
+            .unwrap_or_else(|| (self.pose.clone(), fk.clone()));
+        let mut moments = std::mem::take(&mut self.moments);
+        let cost = self.objective(
+            layout,
+            targets,
+            &self.pose,
+            &fk,
+            Some((&mut moments, &mut ne)),
+        );
+        self.moments = moments;
+        let mut decrease = 0.0;
         for _ in 0..8 {
             let Some(step) = ne.solve(self.lambda) else {
                 self.lambda *= 10.0;
                 continue;
             };
-            let mut trial = self.pose.clone();
-            layout.apply(&mut trial, step.as_slice());
-            let trial_cost = self.objective(layout, targets, &trial, None);
+            trial.clone_from(&self.pose);
+            layout.apply(&mut trial, step);
+            trial_fk.update(skeleton, &trial);
+            let trial_cost = self.objective(layout, targets, &trial, &trial_fk, None);
             if trial_cost <= cost {
-                self.pose = trial;
+                fk_pose.clone_from(&trial);
+                std::mem::swap(&mut fk, &mut trial_fk);
+                std::mem::swap(&mut self.pose, &mut trial);
                 self.lambda = (self.lambda / 3.0).max(1e-7);
-                return (cost - trial_cost) / cost.max(1e-300);
+                decrease = (cost - trial_cost) / cost.max(1e-300);
+                break;
             }
             self.lambda *= 10.0;
         }
-        0.0
+        self.normal = Some(ne);
+        self.fk = Some((fk_pose, fk));
+        self.trial = Some((trial, trial_fk));
+        decrease
     }
 
     /// Eq. (1) at the current pose: `sum omega |y - v|^2 - zeta sum omega`.
