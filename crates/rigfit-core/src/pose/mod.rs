@@ -502,18 +502,13 @@ impl Solver<'_> {
                     let mut trial = assignment.clone();
                     trial[s] = Some((ct.clone(), chains::better_direction(self, s, ct)));
                     trial[t] = Some((cs.clone(), chains::better_direction(self, t, cs)));
-                    let saved = self.pose.clone();
-                    let trial_layout = self.keep_unexplained_at_start(&trial, root);
-                    self.fit_arclength_steps(&trial_layout, &trial, QUICK_FIT_STEPS);
-                    let trial_score = self.chain_score(&trial, &trial_layout, root);
-                    if trial_score < score {
-                        self.fit_arclength(&trial_layout, &trial);
+                    if let Some((trial_layout, trial_score)) =
+                        self.try_assignment(&trial, root, score)
+                    {
                         assignment = trial;
                         layout = trial_layout;
-                        score = self.chain_score(&assignment, &layout, root);
+                        score = trial_score;
                         improved = true;
-                    } else {
-                        self.pose = saved;
                     }
                 }
             }
@@ -539,19 +534,15 @@ impl Solver<'_> {
                     if trial[e].is_none() {
                         continue;
                     }
-                    let saved = self.pose.clone();
-                    let trial_layout = self.keep_unexplained_at_start(&trial, root);
-                    self.fit_arclength_steps(&trial_layout, &trial, QUICK_FIT_STEPS);
-                    let trial_score = self.chain_score(&trial, &trial_layout, root);
-                    if trial_score < score {
-                        self.fit_arclength(&trial_layout, &trial);
+                    if let Some((trial_layout, trial_score)) =
+                        self.try_assignment(&trial, root, score)
+                    {
                         assignment = trial;
                         layout = trial_layout;
-                        score = self.chain_score(&assignment, &layout, root);
+                        score = trial_score;
                         improved = true;
                         break;
                     }
-                    self.pose = saved;
                 }
             }
             // Give a stroke one of its best candidate chains at the current pose, and let the
@@ -592,19 +583,15 @@ impl Solver<'_> {
                     if trial == assignment {
                         continue;
                     }
-                    let saved = self.pose.clone();
-                    let trial_layout = self.keep_unexplained_at_start(&trial, root);
-                    self.fit_arclength_steps(&trial_layout, &trial, QUICK_FIT_STEPS);
-                    let trial_score = self.chain_score(&trial, &trial_layout, root);
-                    if trial_score < score {
-                        self.fit_arclength(&trial_layout, &trial);
+                    if let Some((trial_layout, trial_score)) =
+                        self.try_assignment(&trial, root, score)
+                    {
                         assignment = trial;
                         layout = trial_layout;
-                        score = self.chain_score(&assignment, &layout, root);
+                        score = trial_score;
                         improved = true;
                         break;
                     }
-                    self.pose = saved;
                 }
             }
             // Move a stroke to a free chain of similar length (the other side's limb when one
@@ -641,19 +628,15 @@ impl Solver<'_> {
                 for c in options.into_iter().take(3) {
                     let mut trial = assignment.clone();
                     trial[s] = Some((c.clone(), chains::better_direction(self, s, c)));
-                    let saved = self.pose.clone();
-                    let trial_layout = self.keep_unexplained_at_start(&trial, root);
-                    self.fit_arclength_steps(&trial_layout, &trial, QUICK_FIT_STEPS);
-                    let trial_score = self.chain_score(&trial, &trial_layout, root);
-                    if trial_score < score {
-                        self.fit_arclength(&trial_layout, &trial);
+                    if let Some((trial_layout, trial_score)) =
+                        self.try_assignment(&trial, root, score)
+                    {
                         assignment = trial;
                         layout = trial_layout;
-                        score = self.chain_score(&assignment, &layout, root);
+                        score = trial_score;
                         improved = true;
                         break;
                     }
-                    self.pose = saved;
                 }
             }
             if !improved {
@@ -661,6 +644,27 @@ impl Solver<'_> {
             }
         }
         (assignment, layout, score)
+    }
+
+    /// Judges a trial assignment from the current pose by a quick fit; when it explains the
+    /// strokes better than `score`, fits it fully and returns its layout and score, otherwise
+    /// restores the pose.
+    fn try_assignment(
+        &mut self,
+        trial: &[chains::Assignment],
+        root: Option<usize>,
+        score: f64,
+    ) -> Option<(DofLayout, f64)> {
+        let saved = self.pose.clone();
+        let layout = self.keep_unexplained_at_start(trial, root);
+        self.fit_arclength_steps(&layout, trial, QUICK_FIT_STEPS);
+        if self.chain_score(trial, &layout, root) < score {
+            self.fit_arclength(&layout, trial);
+            let fitted = self.chain_score(trial, &layout, root);
+            return Some((layout, fitted));
+        }
+        self.pose = saved;
+        None
     }
 
     /// Whether stroke `s` may cover `chain` (a stroke pinned to bones covers only those).
