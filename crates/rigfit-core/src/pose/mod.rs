@@ -14,7 +14,7 @@ use crate::engine::{
     MatchMatrix, NormalSink, SkeletonNormalEquations, SoftassignParams, SubtreeMoments, softassign,
 };
 use crate::kinematics::{DofLayout, ForwardKinematics};
-use crate::math::{Matrix4, Point3, Quat, Trs, Vector3, translation_part};
+use crate::math::{Matrix4, Point3, Quat, Trs, Vector3};
 use crate::skeleton::{JointDof, Pose, Skeleton};
 use crate::strokes::Stroke;
 
@@ -307,14 +307,10 @@ impl Solver<'_> {
             .skeleton
             .skin_root()
             .filter(|&r| self.movable[r] && self.skeleton.joint(r).dof == JointDof::Free);
-        let t0 = std::time::Instant::now();
         let starts = match (opts.rigid_init, root) {
             (true, Some(root)) => self.rigid_candidates(root),
             _ => vec![self.start.clone()],
         };
-        if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
-            eprintln!("time after rigid init {:?}", t0.elapsed());
-        }
         let all = self.layout(&self.movable.clone());
         let sigmas = self.schedule(
             opts.sigma_start,
@@ -330,29 +326,13 @@ impl Solver<'_> {
             // are best explained wins (a mirrored body fits its strokes visibly worse).
             let chains = self.model.chains(MAX_CHAIN_BONES);
             let mut fits: Vec<(f64, Pose, Vec<chains::Assignment>, DofLayout)> = Vec::new();
-            let forced: Option<usize> = std::env::var("RIGFIT_DEBUG_HYP")
-                .ok()
-                .and_then(|v| v.parse().ok());
-            for (h, start) in starts.into_iter().enumerate() {
-                if forced.is_some_and(|f| f != h) {
-                    continue;
-                }
+            for start in starts {
                 self.pose = start;
                 if opts.anneal_before_chains {
                     self.anneal(&all, &sigmas, None);
                 }
                 let (assignment, layout, score) = self.fit_chains(&chains, root);
-                if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
-                    eprintln!("hypothesis: score {score:.6} assignment {assignment:?}");
-                }
                 fits.push((score, self.pose.clone(), assignment, layout));
-            }
-            if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
-                eprintln!(
-                    "time after chain fits {:?} ({} iterations)",
-                    t0.elapsed(),
-                    self.iterations
-                );
             }
             // Local search on the promising hypotheses only.
             fits.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -371,13 +351,6 @@ impl Solver<'_> {
                 }
             }
             let (_, pose, assignment, layout) = best.expect("at least one start");
-            if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
-                eprintln!(
-                    "time after local search {:?} ({} iterations)",
-                    t0.elapsed(),
-                    self.iterations
-                );
-            }
             self.pose = pose;
             let allowed_bones: Vec<Option<Vec<bool>>> = assignment
                 .iter()
@@ -452,9 +425,6 @@ impl Solver<'_> {
             // The assignment is stable. A stroke that stays far from its chain is a stray:
             // set it aside and start over without it.
             let residuals = chains::stroke_residuals(self, &assignment);
-            if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
-                eprintln!("    stable residuals {residuals:.3?} {assignment:?}");
-            }
             let worst = (0..strokes)
                 .filter(|&s| assignment[s].is_some())
                 .max_by(|&a, &b| residuals[a].total_cmp(&residuals[b]));
@@ -707,9 +677,6 @@ impl Solver<'_> {
             })
             .collect();
         let bend = moved.iter().sum::<f64>() / moved.len().max(1) as f64;
-        if std::env::var_os("RIGFIT_DEBUG_POSE").is_some() {
-            eprintln!("  data {data:.6} bend {bend:.4}");
-        }
         data + HYPOTHESIS_BEND_WEIGHT * bend
     }
 
@@ -1135,9 +1102,4 @@ impl Solver<'_> {
 fn centroid(points: &[Point3]) -> Vector3 {
     let sum: Vector3 = points.iter().map(|p| p.coords).sum();
     sum / points.len().max(1) as f64
-}
-
-/// World position of a joint for a pose (a convenience for reports and tests).
-pub fn joint_world_position(skeleton: &Skeleton, pose: &Pose, joint: usize) -> Point3 {
-    Point3::from(translation_part(&skeleton.world_matrices(pose)[joint]))
 }
