@@ -287,6 +287,10 @@ fn bad_strokes_and_options_exit_2_with_one_line() {
         ),
         ("empty.json", r#"{"strokes": []}"#),
         (
+            "far_away.json",
+            r#"{"strokes": [{"points": [[1e300, 1, 0], [-1e300, 1, 0]]}]}"#,
+        ),
+        (
             "unknown_bone.json",
             r#"{"strokes": [{"points": [[0, 1, 0], [0, 1.5, 0]], "bones": ["NoSuchBone"]}]}"#,
         ),

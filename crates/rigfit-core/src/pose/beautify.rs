@@ -2,6 +2,9 @@
 
 use crate::math::Point3;
 
+/// The most points one resampling makes.
+pub const MAX_SAMPLES: usize = 4096;
+
 /// Points at even arclength spacing along a polyline, including both ends: at least two,
 /// and about `length / spacing` + 1 in all.
 pub fn resample(points: &[Point3], spacing: f64) -> Vec<Point3> {
@@ -18,7 +21,8 @@ pub fn resample(points: &[Point3], spacing: f64) -> Vec<Point3> {
     if length <= 0.0 || spacing <= 0.0 {
         return vec![first, *points.last().unwrap_or(&first)];
     }
-    let n = ((length / spacing).round() as usize).max(1);
+    // At most MAX_SAMPLES points whatever the spacing asked for.
+    let n = ((length / spacing).round().min(MAX_SAMPLES as f64) as usize).max(1);
     let mut out = Vec::with_capacity(n + 1);
     let mut seg = 0;
     for s in 0..=n {

@@ -31,6 +31,9 @@ const QUICK_FIT_STEPS: usize = 8;
 /// within this factor of the stroke's own chain's.
 const EJECTION_COST_RATIO: f64 = 3.0;
 
+/// Stroke points further than this many character heights from the rig are rejected.
+const MAX_STROKE_DISTANCE: f64 = 100.0;
+
 /// Weight of a joint-limit violation (radians) in the fit.
 const LIMIT_WEIGHT: f64 = 100.0;
 
@@ -122,6 +125,10 @@ pub enum PoseError {
     StrokeTooShort { stroke: usize },
     #[error("strokes[{stroke}].points[{point}]: coordinate is not a finite number")]
     NonFinite { stroke: usize, point: usize },
+    #[error(
+        "strokes[{stroke}].points[{point}]: the point is more than {MAX_STROKE_DISTANCE} character heights away from the rig"
+    )]
+    FarAway { stroke: usize, point: usize },
     #[error("strokes[{stroke}].bones: unknown bone '{name}'")]
     UnknownStrokeBone { stroke: usize, name: String },
     #[error("unknown bone '{name}' in the list of bones that may move")]
@@ -214,6 +221,19 @@ pub fn solve_pose(problem: &PoseProblem, options: &PoseOptions) -> Result<PoseRe
     } else {
         1.0
     };
+    // Strokes must be drawn near the character: a point thousands of heights away is a unit
+    // or coordinate mistake (and would overflow the squared distances).
+    let joints = skeleton.joint_positions(problem.start);
+    let centre = joints.iter().map(|p| p.coords).sum::<Vector3>() / joints.len().max(1) as f64;
+    for (s, stroke) in problem.strokes.iter().enumerate() {
+        if let Some(point) = stroke
+            .points
+            .iter()
+            .position(|p| (p.coords - centre).norm() > MAX_STROKE_DISTANCE * height)
+        {
+            return Err(PoseError::FarAway { stroke: s, point });
+        }
+    }
     let spacing = options.spacing * height;
     let model = BoneModel::new(skeleton, problem.start, spacing, 1e-4 * height);
     if model.bones.is_empty() {
