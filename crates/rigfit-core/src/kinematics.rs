@@ -246,6 +246,33 @@ impl ForwardKinematics {
     }
 }
 
+/// The Jacobian of the point `local` (in `joint`'s frame) by central differences of step `h`
+/// over every parameter of `layout`: the reference the analytic [`ForwardKinematics::
+/// point_jacobian`] is checked against.
+pub fn numeric_point_jacobian(
+    skeleton: &Skeleton,
+    layout: &DofLayout,
+    pose: &Pose,
+    joint: usize,
+    local: &Point3,
+    h: f64,
+) -> Vec<Vector3> {
+    (0..layout.len())
+        .map(|c| {
+            let mut delta = vec![0.0; layout.len()];
+            delta[c] = h;
+            let mut plus = pose.clone();
+            layout.apply(&mut plus, &delta);
+            delta[c] = -h;
+            let mut minus = pose.clone();
+            layout.apply(&mut minus, &delta);
+            (ForwardKinematics::new(skeleton, &plus).point(joint, local)
+                - ForwardKinematics::new(skeleton, &minus).point(joint, local))
+                / (2.0 * h)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -300,21 +327,11 @@ mod tests {
         let p = fk.point(3, &local_point);
         let mut analytic = vec![Vector3::zeros(); layout.len()];
         fk.point_jacobian(&layout, 3, &p, |c, v| analytic[c] = v);
-        let h = 1e-6;
-        for c in 0..layout.len() {
-            let mut delta = vec![0.0; layout.len()];
-            delta[c] = h;
-            let mut plus = pose.clone();
-            layout.apply(&mut plus, &delta);
-            delta[c] = -h;
-            let mut minus = pose.clone();
-            layout.apply(&mut minus, &delta);
-            let pp = ForwardKinematics::new(&s, &plus).point(3, &local_point);
-            let pm = ForwardKinematics::new(&s, &minus).point(3, &local_point);
-            let numeric = (pp - pm) / (2.0 * h);
+        let numeric = numeric_point_jacobian(&s, &layout, &pose, 3, &local_point, 1e-6);
+        for (c, n) in numeric.iter().enumerate() {
             assert!(
-                (numeric - analytic[c]).norm() < 1e-6,
-                "column {c}: {numeric} vs {}",
+                (n - analytic[c]).norm() < 1e-6,
+                "column {c}: {n} vs {}",
                 analytic[c]
             );
         }

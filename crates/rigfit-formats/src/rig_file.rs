@@ -12,11 +12,12 @@ use crate::gltf::{GltfDocument, read_gltf};
 /// Which BVH frame a rig starts from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum StartFrame {
-    /// Frame `k` of the motion (frame 0 by default).
+    /// Frame `k` of the motion.
     Frame(usize),
-    /// All channels zero.
+    /// Frame 0 when the file has frames, else the rest pose.
     #[default]
     First,
+    /// All channels zero.
     Rest,
 }
 

@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use rigfit_core::kinematics::numeric_point_jacobian;
 use rigfit_core::{DofLayout, ForwardKinematics, Point3, Quat, Rig, Vector3};
 use rigfit_formats::gltf::{GltfDocument, parse_gltf, read_gltf, rig_to_glb};
 
@@ -198,17 +199,8 @@ fn jacobians_of_every_real_rig_match_finite_differences() {
             let p = fk.point(j, &local);
             let mut analytic = vec![Vector3::zeros(); layout.len()];
             fk.point_jacobian(&layout, j, &p, |c, v| analytic[c] = v);
-            for c in 0..layout.len() {
-                let mut d = vec![0.0; layout.len()];
-                d[c] = h;
-                let mut plus = pose.clone();
-                layout.apply(&mut plus, &d);
-                d[c] = -h;
-                let mut minus = pose.clone();
-                layout.apply(&mut minus, &d);
-                let numeric = (ForwardKinematics::new(s, &plus).point(j, &local)
-                    - ForwardKinematics::new(s, &minus).point(j, &local))
-                    / (2.0 * h);
+            let numeric_columns = numeric_point_jacobian(s, &layout, &pose, j, &local, h);
+            for (c, numeric) in numeric_columns.iter().enumerate() {
                 let err = (numeric - analytic[c]).norm();
                 assert!(
                     err < 1e-5 * (1.0 + numeric.norm()) * scale.max(1.0),
