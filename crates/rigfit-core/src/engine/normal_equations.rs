@@ -111,6 +111,19 @@ pub trait NormalSink {
         }
     }
 
+    /// Adds a 3D residual `r` with weight `w` whose Jacobian columns are `cols` (parameter
+    /// index, dr/dparameter; each index once), as [`NormalEquations::add_point`].
+    fn add_point_columns(&mut self, r: &Vector3, w: f64, cols: &[(usize, Vector3)]) {
+        self.add_cost(w * r.norm_squared());
+        for (a, &(ca, va)) in cols.iter().enumerate() {
+            let wa = va * w;
+            self.add_jtr(ca, wa.dot(r));
+            for &(cb, vb) in &cols[a..] {
+                self.add_jtj(ca, cb, wa.dot(&vb));
+            }
+        }
+    }
+
     /// Adds a scalar residual `r` with weight `w` that depends on one parameter with
     /// derivative `d` (as [`NormalEquations::add_scalar`]).
     fn add_scalar(&mut self, r: f64, w: f64, col: usize, d: f64) {

@@ -1,0 +1,233 @@
+//! The one-sided EM correspondence of Dewaele et al. (2006), section 3: model points are
+//! classes, plus one uniform outlier class; each data point's posteriors over the model
+//! points and the outlier class sum to one (eq. 17), a model point may take several data
+//! points (one-to-many). Only model points within a cutoff of a few `sigma` are visited,
+//! so a step costs O(data x neighbours), never data x model.
+
+use rayon::prelude::*;
+
+use crate::engine::point_grid::PointGrid;
+use crate::math::{Point3, Vector3};
+
+/// The outlier term of eq. (17)-(18): `c = 3 sqrt(pi / 2)` when the model's small volumes
+/// are negligible next to the working volume.
+pub const DEWAELE_OUTLIER_CONSTANT: f64 = 3.759_942_411_946_42;
+
+/// Kernel cutoff in units of `sigma`: `exp(-4.5) ~ 1%` of one model point's weight.
+const CUTOFF_SIGMAS: f64 = 3.0;
+
+/// Data points per parallel chunk (smaller clouds run on the calling thread).
+const PARALLEL_CHUNK: usize = 4096;
+
+/// What one E-step gives the M-step.
+#[derive(Clone, Debug, Default)]
+pub struct EmStep {
+    /// Per model point, `lambda_i = sum_j alpha_ij` (eq. 20), with data weights.
+    pub lambda: Vec<f64>,
+    /// Per model point, `G_i = sum_j alpha_ij Y_j / lambda_i` (eq. 20); meaningless where
+    /// `lambda_i` is zero.
+    pub target: Vec<Point3>,
+    /// Per data point, its posterior of being an inlier, `sum_i alpha_ij`.
+    pub inlier: Vec<f64>,
+    /// Per data point, the model point with the largest posterior (`u32::MAX`: none).
+    pub best: Vec<u32>,
+}
+
+impl EmStep {
+    /// Data points whose inlier posterior is at least one half.
+    pub fn inlier_count(&self) -> usize {
+        self.inlier.iter().filter(|&&a| a >= 0.5).count()
+    }
+}
+
+/// Per-chunk sums: `lambda` and `sum alpha Y` per model point.
+#[derive(Clone)]
+struct Sums {
+    lambda: Vec<f64>,
+    moment: Vec<Vector3>,
+}
+
+impl Sums {
+    fn new(n: usize) -> Self {
+        Self {
+            lambda: vec![0.0; n],
+            moment: vec![Vector3::zeros(); n],
+        }
+    }
+
+    fn merge(mut self, other: Sums) -> Sums {
+        for i in 0..self.lambda.len() {
+            self.lambda[i] += other.lambda[i];
+            self.moment[i] += other.moment[i];
+        }
+        self
+    }
+}
+
+/// One E-step (eq. 17) of data `data` (each with weight `data_weight[j]`, 1 when `None`)
+/// against model points `model` (each standing for `model_weight[i]` points, 1 when `None`)
+/// at width `sigma`, with outlier constant `outlier_c`. `grid` is rebuilt over `model`.
+pub fn em_step(
+    data: &[Point3],
+    data_weight: Option<&[f64]>,
+    model: &[Point3],
+    model_weight: Option<&[f64]>,
+    sigma: f64,
+    outlier_c: f64,
+    grid: &mut PointGrid,
+    out: &mut EmStep,
+) {
+    let n = model.len();
+    let radius = CUTOFF_SIGMAS * sigma;
+    grid.rebuild(model, radius);
+    let inv_two_s2 = 0.5 / (sigma * sigma);
+    out.inlier.clear();
+    out.inlier.resize(data.len(), 0.0);
+    out.best.clear();
+    out.best.resize(data.len(), u32::MAX);
+
+    // For one data point: its posteriors (eq. 17) into `sums`; returns (inlier, best).
+    let visit = |j: usize, y: &Point3, sums: &mut Sums, scratch: &mut Vec<(usize, f64)>| {
+        scratch.clear();
+        let mut total = 0.0;
+        grid.for_each_within(y, radius, |i, d2| {
+            let e = model_weight.map_or(1.0, |w| w[i]) * (-d2 * inv_two_s2).exp();
+            total += e;
+            scratch.push((i, e));
+        });
+        if total == 0.0 {
+            return (0.0, u32::MAX);
+        }
+        let wj = data_weight.map_or(1.0, |w| w[j]);
+        let norm = 1.0 / (total + outlier_c);
+        let mut best = (0.0, u32::MAX);
+        for &(i, e) in scratch.iter() {
+            let a = e * norm;
+            sums.lambda[i] += a * wj;
+            sums.moment[i] += y.coords * (a * wj);
+            if a > best.0 {
+                best = (a, i as u32);
+            }
+        }
+        (total * norm, best.1)
+    };
+
+    let sums = if data.len() <= PARALLEL_CHUNK {
+        let mut sums = Sums::new(n);
+        let mut scratch = Vec::new();
+        for (j, y) in data.iter().enumerate() {
+            let (a, b) = visit(j, y, &mut sums, &mut scratch);
+            out.inlier[j] = a;
+            out.best[j] = b;
+        }
+        sums
+    } else {
+        data.par_chunks(PARALLEL_CHUNK)
+            .zip(out.inlier.par_chunks_mut(PARALLEL_CHUNK))
+            .zip(out.best.par_chunks_mut(PARALLEL_CHUNK))
+            .enumerate()
+            .map(|(c, ((ys, inl), best))| {
+                let mut sums = Sums::new(n);
+                let mut scratch = Vec::new();
+                for (k, y) in ys.iter().enumerate() {
+                    let (a, b) = visit(c * PARALLEL_CHUNK + k, y, &mut sums, &mut scratch);
+                    inl[k] = a;
+                    best[k] = b;
+                }
+                sums
+            })
+            .reduce(|| Sums::new(n), Sums::merge)
+    };
+    out.lambda.clear();
+    out.lambda.extend_from_slice(&sums.lambda);
+    out.target.clear();
+    out.target.extend(
+        sums.moment
+            .iter()
+            .zip(&sums.lambda)
+            .map(|(m, &l)| Point3::from(if l > 0.0 { m / l } else { *m })),
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Brute-force eq. (17) on a small case.
+    #[test]
+    fn posteriors_match_the_formula() {
+        let model = vec![
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(0.1, 0.0, 0.0),
+            Point3::new(0.0, 0.2, 0.0),
+        ];
+        let data = vec![
+            Point3::new(0.02, 0.01, 0.0),
+            Point3::new(0.09, 0.0, 0.01),
+            Point3::new(5.0, 5.0, 5.0),
+        ];
+        let sigma = 0.05;
+        let mut grid = PointGrid::default();
+        let mut out = EmStep::default();
+        em_step(
+            &data,
+            None,
+            &model,
+            None,
+            sigma,
+            DEWAELE_OUTLIER_CONSTANT,
+            &mut grid,
+            &mut out,
+        );
+        let kernel = |y: &Point3, x: &Point3| {
+            let d2 = (y - x).norm_squared();
+            if d2.sqrt() <= 3.0 * sigma {
+                (-d2 / (2.0 * sigma * sigma)).exp()
+            } else {
+                0.0
+            }
+        };
+        for i in 0..model.len() {
+            let mut lambda = 0.0;
+            let mut moment = Vector3::zeros();
+            for y in &data {
+                let total: f64 = model.iter().map(|x| kernel(y, x)).sum();
+                let a = kernel(y, &model[i]) / (total + DEWAELE_OUTLIER_CONSTANT);
+                lambda += a;
+                moment += y.coords * a;
+            }
+            approx::assert_relative_eq!(out.lambda[i], lambda, epsilon = 1e-12);
+            if lambda > 0.0 {
+                approx::assert_relative_eq!(out.target[i].coords, moment / lambda, epsilon = 1e-12);
+            }
+        }
+        assert_eq!(out.inlier[2], 0.0);
+        assert_eq!(out.best[2], u32::MAX);
+        assert_eq!(out.best[0], 0);
+        assert_eq!(out.best[1], 1);
+        assert_eq!(out.inlier_count(), 2);
+    }
+
+    #[test]
+    fn parallel_and_serial_agree() {
+        let model: Vec<Point3> = (0..300)
+            .map(|i| Point3::new((i % 17) as f64 * 0.01, (i / 17) as f64 * 0.01, 0.0))
+            .collect();
+        let data: Vec<Point3> = (0..10_000)
+            .map(|i| Point3::new((i % 97) as f64 * 0.0017, (i / 97) as f64 * 0.0017, 0.003))
+            .collect();
+        let mut grid = PointGrid::default();
+        let (mut a, mut b) = (EmStep::default(), EmStep::default());
+        em_step(&data, None, &model, None, 0.01, 3.76, &mut grid, &mut a);
+        let mut lam = vec![0.0; model.len()];
+        for chunk in data.chunks(1000) {
+            em_step(chunk, None, &model, None, 0.01, 3.76, &mut grid, &mut b);
+            for i in 0..lam.len() {
+                lam[i] += b.lambda[i];
+            }
+        }
+        for i in 0..lam.len() {
+            approx::assert_relative_eq!(a.lambda[i], lam[i], epsilon = 1e-9);
+        }
+    }
+}

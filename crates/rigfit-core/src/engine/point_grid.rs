@@ -1,0 +1,210 @@
+//! A uniform grid over a point set for fixed-radius neighbour queries, and voxel
+//! subsampling. Building is a counting sort (O(points)); a query visits the 27 cells
+//! around the query point, so the cost of a correspondence step stays linear in the number
+//! of points when the cutoff radius is a few kernel widths.
+
+use crate::math::Point3;
+
+/// Points bucketed into cubic cells of one size.
+#[derive(Clone, Debug, Default)]
+pub struct PointGrid {
+    origin: Point3,
+    cell: f64,
+    dims: [usize; 3],
+    /// `starts[c]..starts[c + 1]` indexes `order` for cell `c`.
+    starts: Vec<u32>,
+    /// Point indices sorted by cell.
+    order: Vec<u32>,
+    points: Vec<Point3>,
+}
+
+/// The most cells a grid allocates; coarser cells are used beyond it.
+const MAX_CELLS: usize = 1 << 21;
+
+impl PointGrid {
+    /// A grid over `points` whose cells are at least `cell` wide (wider when the points
+    /// spread over too many cells). Non-finite points are left out.
+    pub fn new(points: &[Point3], cell: f64) -> Self {
+        let mut grid = Self::default();
+        grid.rebuild(points, cell);
+        grid
+    }
+
+    /// Builds the grid again over `points`, reusing storage.
+    pub fn rebuild(&mut self, points: &[Point3], cell: f64) {
+        self.points.clear();
+        self.points.extend_from_slice(points);
+        let finite = || points.iter().filter(|p| p.iter().all(|c| c.is_finite()));
+        let mut lo = Point3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        let mut hi = -lo;
+        for p in finite() {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        self.order.clear();
+        self.starts.clear();
+        if lo.x > hi.x {
+            self.dims = [0; 3];
+            self.starts.push(0);
+            return;
+        }
+        let extent = hi - lo;
+        let mut cell = if cell.is_finite() && cell > 0.0 {
+            cell
+        } else {
+            extent.max().max(1e-12)
+        };
+        let dims = |cell: f64| extent.map(|e| (e / cell).floor() as usize + 1);
+        while dims(cell).iter().product::<usize>() > MAX_CELLS {
+            cell *= 2.0;
+        }
+        let d = dims(cell);
+        self.origin = lo;
+        self.cell = cell;
+        self.dims = [d.x, d.y, d.z];
+        let count = self.dims.iter().product::<usize>();
+        self.starts.resize(count + 1, 0);
+        let mut keys = Vec::with_capacity(points.len());
+        for (i, p) in points.iter().enumerate() {
+            if let Some(c) = self.cell_of(p) {
+                self.starts[c + 1] += 1;
+                keys.push((i as u32, c));
+            }
+        }
+        for c in 0..count {
+            self.starts[c + 1] += self.starts[c];
+        }
+        self.order.resize(keys.len(), 0);
+        let mut fill = self.starts.clone();
+        for (i, c) in keys {
+            self.order[fill[c] as usize] = i;
+            fill[c] += 1;
+        }
+    }
+
+    /// The cell size.
+    pub fn cell(&self) -> f64 {
+        self.cell
+    }
+
+    fn coords(&self, p: &Point3) -> [i64; 3] {
+        let u = (p - self.origin) / self.cell;
+        [u.x.floor() as i64, u.y.floor() as i64, u.z.floor() as i64]
+    }
+
+    fn cell_of(&self, p: &Point3) -> Option<usize> {
+        if !p.iter().all(|c| c.is_finite()) {
+            return None;
+        }
+        let c = self.coords(p);
+        let inside = (0..3).all(|a| c[a] >= 0 && (c[a] as usize) < self.dims[a]);
+        inside.then(|| (c[0] as usize * self.dims[1] + c[1] as usize) * self.dims[2] + c[2] as usize)
+    }
+
+    /// Calls `f(index, squared distance)` for every point within `radius` of `q`.
+    pub fn for_each_within(&self, q: &Point3, radius: f64, mut f: impl FnMut(usize, f64)) {
+        if self.order.is_empty() || !q.iter().all(|c| c.is_finite()) {
+            return;
+        }
+        let r2 = radius * radius;
+        let reach = (radius / self.cell).ceil().max(1.0) as i64;
+        let c = self.coords(q);
+        let range = |a: usize| {
+            let lo = (c[a] - reach).max(0);
+            let hi = (c[a] + reach).min(self.dims[a] as i64 - 1);
+            lo..=hi
+        };
+        for x in range(0) {
+            for y in range(1) {
+                let row = (x as usize * self.dims[1] + y as usize) * self.dims[2];
+                let zs = range(2);
+                if zs.is_empty() {
+                    continue;
+                }
+                let (z0, z1) = (*zs.start() as usize, *zs.end() as usize);
+                let from = self.starts[row + z0] as usize;
+                let to = self.starts[row + z1 + 1] as usize;
+                for &i in &self.order[from..to] {
+                    let d2 = (self.points[i as usize] - q).norm_squared();
+                    if d2 <= r2 {
+                        f(i as usize, d2);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The nearest point within `radius` of `q` and its squared distance.
+    pub fn nearest_within(&self, q: &Point3, radius: f64) -> Option<(usize, f64)> {
+        let mut best: Option<(usize, f64)> = None;
+        self.for_each_within(q, radius, |i, d2| {
+            if best.is_none_or(|(_, b)| d2 < b) {
+                best = Some((i, d2));
+            }
+        });
+        best
+    }
+}
+
+/// One representative per occupied cube of side `cell`: the first point met in it, and how
+/// many points the cube holds. Non-finite points are dropped.
+pub fn voxel_subsample(points: &[Point3], cell: f64) -> Vec<(usize, u32)> {
+    let grid = PointGrid::new(points, cell);
+    let mut out = Vec::new();
+    for c in 0..grid.starts.len().saturating_sub(1) {
+        let (a, b) = (grid.starts[c] as usize, grid.starts[c + 1] as usize);
+        if b > a {
+            let first = grid.order[a..b].iter().copied().min().unwrap_or(0);
+            out.push((first as usize, (b - a) as u32));
+        }
+    }
+    out.sort_unstable_by_key(|&(i, _)| i);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn radius_queries_match_brute_force() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+        let points: Vec<Point3> = (0..500)
+            .map(|_| Point3::new(rng.random(), rng.random(), rng.random::<f64>() * 0.2))
+            .collect();
+        for cell in [0.05, 0.1, 0.3] {
+            let grid = PointGrid::new(&points, cell);
+            for q in points.iter().take(50) {
+                for radius in [0.04, 0.1, 0.25] {
+                    let mut got = Vec::new();
+                    grid.for_each_within(q, radius, |i, _| got.push(i));
+                    got.sort_unstable();
+                    let want: Vec<usize> = (0..points.len())
+                        .filter(|&i| (points[i] - q).norm() <= radius)
+                        .collect();
+                    assert_eq!(got, want);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn subsample_counts_every_point_once() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(4);
+        let points: Vec<Point3> = (0..1000)
+            .map(|_| Point3::new(rng.random(), rng.random(), rng.random()))
+            .collect();
+        let reps = voxel_subsample(&points, 0.25);
+        assert_eq!(reps.iter().map(|r| r.1 as usize).sum::<usize>(), 1000);
+        assert!(reps.len() <= 64 && reps.len() > 20);
+    }
+
+    #[test]
+    fn empty_and_non_finite_points() {
+        let grid = PointGrid::new(&[], 0.1);
+        assert!(grid.nearest_within(&Point3::origin(), 1.0).is_none());
+        let grid = PointGrid::new(&[Point3::new(f64::NAN, 0.0, 0.0), Point3::origin()], 0.1);
+        assert_eq!(grid.nearest_within(&Point3::origin(), 1.0), Some((1, 0.0)));
+    }
+}
