@@ -75,8 +75,8 @@ pub fn side_by_side_cameras(
 }
 
 /// A contact sheet: one cell per frame (labelled, the views one below the other), at most
-/// `columns` cells per row, every frame framed the same way (the union of all frames'
-/// bounds per view) so motion shows. Pick the frames with [`pick_frames`].
+/// `columns` cells per row, every frame at the same scale (fitting the largest frame) and
+/// centred on its own content. Pick the frames with [`pick_frames`].
 pub fn contact_sheet(frames: &[(&str, &Scene)], options: &RenderOptions, columns: usize) -> Image {
     draw_grid(
         frames,
@@ -116,7 +116,7 @@ enum Grid {
     Row,
     /// Cells in a row, views in a column, each cell framed alone.
     SideBySide,
-    /// Cells wrapping after this many columns, views in a column, one framing for all.
+    /// Cells wrapping after this many columns, views in a column, one scale for all.
     Sheet(usize),
 }
 
@@ -142,19 +142,25 @@ fn grid(cells: &[(&str, &Scene)], options: &RenderOptions, layout: Grid) -> Vec<
     let t = options.tile.clamp(16, 2048);
     let margin = (t as f64 * 0.04).max(4.0);
     let top = options.label_height() + margin * 0.5;
-    let shared = cells
+    let largest_extent = cells
         .iter()
         .filter_map(|(_, s)| s.bounds())
-        .reduce(|a, b| Aabb {
-            min: a.min.inf(&b.min),
-            max: a.max.sup(&b.max),
-        })
-        .unwrap_or_else(unit_box);
+        .map(|b| b.extent())
+        .reduce(|a, b| a.sup(&b))
+        .unwrap_or_else(|| unit_box().extent());
     let mut out = Vec::new();
     for (c, (_, scene)) in cells.iter().enumerate() {
+        let own = scene.bounds().unwrap_or_else(unit_box);
         let bounds = match layout {
-            Grid::Sheet(_) => shared,
-            _ => scene.bounds().unwrap_or_else(unit_box),
+            // One scale for every frame (the largest extent), each centred on its content.
+            Grid::Sheet(_) => {
+                let half = largest_extent / 2.0;
+                Aabb {
+                    min: own.center() - half,
+                    max: own.center() + half,
+                }
+            }
+            _ => own,
         };
         for (v, &view) in views.iter().enumerate() {
             let (col, row) = match layout {
@@ -400,7 +406,8 @@ fn index3(t: &[u32; 3], len: usize) -> Option<[usize; 3]> {
     (a < len && b < len && c < len).then_some([a, b, c])
 }
 
-/// Points as square dots, back to front, darker with distance; outliers after inliers.
+/// Points as square dots, back to front, lighter with distance; outliers (same size, their
+/// own colour) under the inliers.
 fn draw_points(image: &mut Image, scene: &Scene, camera: &Camera, dot: i64) {
     for layer in &scene.layers {
         let Layer::Points(cloud) = layer else {
@@ -420,7 +427,7 @@ fn draw_points(image: &mut Image, scene: &Scene, camera: &Camera, dot: i64) {
             })
             .filter(|(_, d, x, y)| d.is_finite() && x.is_finite() && y.is_finite())
             .collect();
-        order.sort_by(|p, q| p.0.cmp(&q.0).then(p.1.total_cmp(&q.1)));
+        order.sort_by(|p, q| q.0.cmp(&p.0).then(p.1.total_cmp(&q.1)));
         let (near, far) = order
             .iter()
             .fold((f64::MIN, f64::MAX), |(n, f), p| (n.max(p.1), f.min(p.1)));

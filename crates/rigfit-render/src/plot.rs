@@ -241,7 +241,35 @@ pub fn line_chart(chart: &Chart) -> Image {
     let (w, h) = (chart.width.clamp(200, 4096), chart.height.clamp(120, 4096));
     let mut image = Image::new(w, h, color::BACKGROUND);
     let scale = 1;
-    let (left, right, top, bottom) = (78.0, 16.0, 28.0, 40.0);
+    // The header: the title, then the y label and the legend on the lines below it.
+    let title_scale = if text_width(&chart.title, 2) <= w as i64 - 16 {
+        2
+    } else {
+        1
+    };
+    image.text(8, 6, &chart.title, title_scale, color::INK);
+    let mut line_y = 6 + 8 * title_scale as i64 + 8;
+    let y_label = if chart.y_log {
+        format!("{} (log)", chart.y_label)
+    } else {
+        chart.y_label.clone()
+    };
+    let mut cursor = 8 + image.text(8, line_y, &y_label, scale, color::INK);
+    if chart.series.len() > 1 {
+        cursor += 24;
+        for (i, series) in chart.series.iter().enumerate() {
+            let c = series.color.unwrap_or_else(|| color::palette(i));
+            let entry = 28 + text_width(&series.name, scale);
+            if cursor + entry > w as i64 - 8 {
+                cursor = 8;
+                line_y += 14;
+            }
+            image.fill_pixels(cursor, line_y + 2, 22, 4, c);
+            image.text(cursor + 28, line_y, &series.name, scale, color::INK);
+            cursor += entry + 20;
+        }
+    }
+    let (left, right, top, bottom) = (78.0, 28.0, (line_y + 20) as f64, 40.0);
     let plot_w = w as f64 - left - right;
     let plot_h = h as f64 - top - bottom;
     let all = || chart.series.iter().flat_map(|s| s.points.iter());
@@ -298,8 +326,7 @@ pub fn line_chart(chart: &Chart) -> Image {
         1,
         color::INK,
     );
-    // Title and axis labels.
-    image.text(left as i64, 8, &chart.title, 2, color::INK);
+    // The x label, under the axis at the right.
     let x_label = if chart.x_log {
         format!("{} (log)", chart.x_label)
     } else {
@@ -312,14 +339,6 @@ pub fn line_chart(chart: &Chart) -> Image {
         scale,
         color::INK,
     );
-    let y_label = if chart.y_log {
-        format!("{} (log)", chart.y_label)
-    } else {
-        chart.y_label.clone()
-    };
-    let y_label_x = (w as i64 - 8 - text_width(&y_label, 2))
-        .min(left as i64 + 4 + text_width(&chart.title, 2) + 24);
-    image.text(y_label_x.max(left as i64), 12, &y_label, scale, color::INK);
 
     // The curves.
     let points_total: usize = chart.series.iter().map(|s| s.points.len()).sum();
@@ -369,31 +388,6 @@ pub fn line_chart(chart: &Chart) -> Image {
         }
     }
 
-    // Legend, top left inside the plot, when there is more than one series.
-    if chart.series.len() > 1 {
-        let line_h = 14;
-        let legend_w = chart
-            .series
-            .iter()
-            .map(|s| text_width(&s.name, scale))
-            .max()
-            .unwrap_or(0)
-            + 34;
-        let (lx, ly) = (left as i64 + 10, top as i64 + 8);
-        image.fill_pixels(
-            lx - 4,
-            ly - 4,
-            legend_w + 8,
-            line_h * chart.series.len() as i64 + 6,
-            color::BACKGROUND,
-        );
-        for (i, series) in chart.series.iter().enumerate() {
-            let c = series.color.unwrap_or_else(|| color::palette(i));
-            let y = ly + i as i64 * line_h;
-            image.fill_pixels(lx, y + 3, 22, 3, c);
-            image.text(lx + 28, y, &series.name, scale, color::INK);
-        }
-    }
     image
 }
 
@@ -427,10 +421,10 @@ mod tests {
             .push(Series::new("a", vec![(0.0, 0.0), (1.0, 1.0)]));
         let image = line_chart(&chart);
         assert_eq!((image.width(), image.height()), (720, 360));
-        // The middle of the diagonal is drawn in the first palette colour.
-        let (x, y) = (78.0 + 0.5 * (720.0 - 94.0), 28.0 + 0.5 * (360.0 - 68.0));
-        let near = (-2..=2)
-            .any(|d: i32| image.pixel((x as i32 + d) as u32, y as u32) == Some(color::palette(0)));
-        assert!(near);
+        // The diagonal is drawn in the first palette colour, across most of the width.
+        let columns = (0..image.width())
+            .filter(|&x| (0..image.height()).any(|y| image.pixel(x, y) == Some(color::palette(0))))
+            .count();
+        assert!(columns > 500, "{columns} columns with the curve");
     }
 }

@@ -223,7 +223,7 @@ fn a_contact_sheet_frames_every_frame_alike() {
     let sheet = contact_sheet(&cells, &options, 3);
     assert_eq!((sheet.width(), sheet.height()), (600, 800));
     let cameras = contact_sheet_cameras(&cells, &options, 3);
-    // One framing: every frame's cameras have the same scale.
+    // One scale for every frame.
     assert!(cameras.iter().all(|c| c[0].scale == cameras[0][0].scale));
     for ((label, scene), cams) in frames.iter().zip(&cameras) {
         let joints: Vec<Point3> = scene
