@@ -334,11 +334,14 @@ fn fill_circle(image: &mut Image, x: f32, y: f32, radius: f32, color: Color) {
     }
 }
 
+/// A triangle ready to paint: summed depth toward the camera, pixel corners, shade.
+type ShadedTriangle = (f64, [(f32, f32); 3], Color);
+
 /// Every triangle of every mesh layer, back to front (painter's algorithm), shaded by the
 /// angle between its normal and the view direction.
 fn draw_meshes(image: &mut Image, scene: &Scene, camera: &Camera) {
     let toward = camera.view.toward_camera();
-    let mut triangles: Vec<(f64, [(f32, f32); 3], Color)> = Vec::new();
+    let mut triangles: Vec<ShadedTriangle> = Vec::new();
     for layer in &scene.layers {
         let Layer::Mesh(mesh) = layer else { continue };
         let projected: Vec<(f64, f64, f64)> =
