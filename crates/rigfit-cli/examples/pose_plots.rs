@@ -26,14 +26,22 @@ fn methods() -> [(&'static str, PoseOptions); 2] {
     ]
 }
 
-/// Mean error (% of the height) over every case of every suite.
-fn mean_error(suites: &[pose_suites::Suite], options: &PoseOptions, scenario: &CaseOptions) -> f64 {
-    let errors: Vec<f64> = suites
+/// Mean and median error (% of the height) over every case of every suite.
+fn errors(
+    suites: &[pose_suites::Suite],
+    options: &PoseOptions,
+    scenario: &CaseOptions,
+) -> (f64, f64) {
+    let mut errors: Vec<f64> = suites
         .iter()
         .flat_map(|s| pose_suites::solve_cases(s, options, scenario))
         .map(|o| o.error * 100.0)
         .collect();
-    errors.iter().sum::<f64>() / errors.len() as f64
+    errors.sort_by(f64::total_cmp);
+    (
+        errors.iter().sum::<f64>() / errors.len() as f64,
+        errors[errors.len() / 2],
+    )
 }
 
 /// `count` strokes of exactly `points` points drawn from `truth`, longest chains first.
@@ -74,8 +82,11 @@ fn main() {
         "noise per coordinate (% of height)",
         "mean joint error (% of height)",
     );
-    println!("| noise (% height) | rigfit error (%) | paper error (%) |\n|---|---|---|");
+    println!(
+        "| noise (% height) | rigfit mean / median error (%) | paper mean / median error (%) |\n|---|---|---|"
+    );
     let mut rows = vec![Vec::new(); noise_levels.len()];
+    let mut rows_of_noise = Vec::new();
     for (name, options) in methods() {
         let points: Vec<(f64, f64)> = noise_levels
             .iter()
@@ -84,16 +95,21 @@ fn main() {
                     noise: n / 100.0,
                     ..Default::default()
                 };
-                (n, mean_error(&suites, &options, &scenario))
+                let (mean, median) = errors(&suites, &options, &scenario);
+                rows_of_noise.push((mean, median));
+                (n, mean)
             })
             .collect();
-        for (row, p) in rows.iter_mut().zip(&points) {
-            row.push(p.1);
+        for (row, p) in rows.iter_mut().zip(rows_of_noise.drain(..)) {
+            row.push(p);
         }
         chart.series.push(Series::new(name, points));
     }
     for (n, row) in noise_levels.iter().zip(&rows) {
-        println!("| {n} | {:.2} | {:.2} |", row[0], row[1]);
+        println!(
+            "| {n} | {:.2} / {:.2} | {:.2} / {:.2} |",
+            row[0].0, row[0].1, row[1].0, row[1].1
+        );
     }
     write(&line_chart(&chart), &dir, "pose_error_vs_noise.png");
 
@@ -104,8 +120,11 @@ fn main() {
         "stray strokes added (outliers)",
         "mean joint error (% of height)",
     );
-    println!("\n| stray strokes | rigfit error (%) | paper error (%) |\n|---|---|---|");
+    println!(
+        "\n| stray strokes | rigfit mean / median error (%) | paper mean / median error (%) |\n|---|---|---|"
+    );
     let mut rows = vec![Vec::new(); strays.len()];
+    let mut rows_of_strays = Vec::new();
     for (name, options) in methods() {
         let points: Vec<(f64, f64)> = strays
             .iter()
@@ -114,16 +133,21 @@ fn main() {
                     stray_strokes: k,
                     ..Default::default()
                 };
-                (k as f64, mean_error(&suites, &options, &scenario))
+                let (mean, median) = errors(&suites, &options, &scenario);
+                rows_of_strays.push((mean, median));
+                (k as f64, mean)
             })
             .collect();
-        for (row, p) in rows.iter_mut().zip(&points) {
-            row.push(p.1);
+        for (row, p) in rows.iter_mut().zip(rows_of_strays.drain(..)) {
+            row.push(p);
         }
         chart.series.push(Series::new(name, points));
     }
     for (k, row) in strays.iter().zip(&rows) {
-        println!("| {k} | {:.2} | {:.2} |", row[0], row[1]);
+        println!(
+            "| {k} | {:.2} / {:.2} | {:.2} / {:.2} |",
+            row[0].0, row[0].1, row[1].0, row[1].1
+        );
     }
     write(&line_chart(&chart), &dir, "pose_error_vs_strays.png");
 
