@@ -6,13 +6,19 @@ mod common;
 use std::path::Path;
 
 use common::*;
+use rigfit_core::Point3;
+use rigfit_formats::rig_file::{RigOptions, read_rig};
+use rigfit_render::color::BACKGROUND;
+use rigfit_render::{
+    Color, Image, RenderOptions, Scene, chain_colors, render_cameras, side_by_side_cameras,
+    stroke_colors,
+};
 
 fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
 
-/// Width and height from a PNG's IHDR chunk, and the share of its bytes that differ from a
-/// blank picture's (a rough non-blank check; the render crate's tests check pixels).
+/// Width and height from a PNG's IHDR chunk, and the file's length.
 fn png_size(path: &Path) -> (u32, u32, usize) {
     let bytes = std::fs::read(path).expect("the picture was written");
     assert_eq!(
@@ -25,10 +31,25 @@ fn png_size(path: &Path) -> (u32, u32, usize) {
     (be(&bytes[16..20]), be(&bytes[20..24]), bytes.len())
 }
 
+/// The scene `rigfit render` draws for one file, rebuilt here to find where things project.
+fn scene_of(path: &Path) -> (Scene, Vec<Point3>) {
+    let mut scene = Scene::new();
+    let points = if path.extension().is_some_and(|e| e == "ply") {
+        let mesh = rigfit_formats::ply::read_ply(path).expect("mesh");
+        scene.add_mesh(&mesh);
+        mesh.vertices
+    } else {
+        let rig = read_rig(path, &RigOptions::default()).expect("rig").rig;
+        scene.add_rig(&rig, &rig.pose);
+        let joints = rig.skeleton.joint_positions(&rig.pose);
+        rig.reported_joints().map(|j| joints[j]).collect()
+    };
+    (scene, points)
+}
+
 #[test]
-fn renders_every_real_asset() {
+fn renders_every_real_asset_where_its_geometry_projects() {
     let dir = tempfile::tempdir().expect("temp dir");
-    // A blank 400 x 400 white picture compresses to well under 2 kB.
     for file in [
         "assimp/BCN_Epileptic.glb",
         "assimp/Testwuson.glb",
@@ -48,9 +69,39 @@ fn renders_every_real_asset() {
             "{file}: nothing on stderr: {}",
             stderr(&o)
         );
-        let (w, h, len) = png_size(&out);
+        let (w, h, _) = png_size(&out);
         assert_eq!((w, h), (600, 200), "{file}");
-        assert!(len > 4000, "{file}: {len} bytes looks blank");
+        let image = Image::from_png(&std::fs::read(&out).expect("read")).expect("decodes");
+        let drawn = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .filter(|&(x, y)| image.pixel(x, y) != Some(BACKGROUND))
+            .count();
+        assert!(drawn > 600, "{file}: {drawn} drawn pixels looks blank");
+        let (scene, points) = scene_of(&input);
+        let options = RenderOptions {
+            tile: 200,
+            ..Default::default()
+        };
+        for camera in render_cameras(&scene, &options) {
+            for p in points.iter().step_by(7) {
+                let (x, y, _) = camera.project(p);
+                let near = (-2i64..=2).any(|dy| {
+                    (-2i64..=2).any(|dx| {
+                        let (px, py) = (x.round() as i64 + dx, y.round() as i64 + dy);
+                        px >= 0
+                            && py >= 0
+                            && image
+                                .pixel(px as u32, py as u32)
+                                .is_some_and(|c| c != BACKGROUND)
+                    })
+                });
+                assert!(
+                    near,
+                    "{file}: nothing drawn at {p:?} in the {:?} view",
+                    camera.view
+                );
+            }
+        }
     }
 }
 
@@ -82,16 +133,25 @@ fn overlays_several_inputs_and_takes_views() {
 }
 
 #[test]
-fn pose_render_draws_start_and_result_side_by_side() {
+fn pose_render_draws_start_and_result_side_by_side_strokes_in_their_bones_colours() {
     let dir = tempfile::tempdir().expect("temp dir");
     let demo = dir.path().join("demo");
     let o = rigfit(&["demo", "-o", s(&demo)]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let picture = dir.path().join("pose.png");
+    let (rig_path, strokes_path) = (demo.join("humanoid.glb"), demo.join("strokes.json"));
+    let (picture, posed, report) = (
+        dir.path().join("pose.png"),
+        dir.path().join("posed.glb"),
+        dir.path().join("report.json"),
+    );
     let o = rigfit(&[
         "pose",
-        s(&demo.join("humanoid.glb")),
-        s(&demo.join("strokes.json")),
+        s(&rig_path),
+        s(&strokes_path),
+        "-o",
+        s(&posed),
+        "--report",
+        s(&report),
         "--render",
         s(&picture),
         "--tile",
@@ -99,9 +159,77 @@ fn pose_render_draws_start_and_result_side_by_side() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     // Two panels (start, result) of three views each, one below the other.
-    let (w, h, len) = png_size(&picture);
+    let (w, h, _) = png_size(&picture);
     assert_eq!((w, h), (600, 900));
-    assert!(len > 10_000, "{len} bytes");
+    let image = Image::from_png(&std::fs::read(&picture).expect("read")).expect("decodes");
+
+    // Rebuild both scenes to know where each stroke lands and which colour it must have.
+    let start = read_rig(&rig_path, &RigOptions::default())
+        .expect("rig")
+        .rig;
+    let result = read_rig(&posed, &RigOptions::default()).expect("posed").rig;
+    let strokes = rigfit_formats::strokes::read_strokes(&strokes_path).expect("strokes");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).expect("report")).expect("JSON");
+    let stroke_bones: Vec<Vec<usize>> = report["strokes"]
+        .as_array()
+        .expect("strokes")
+        .iter()
+        .map(|st| {
+            st["bones"]
+                .as_array()
+                .expect("bones")
+                .iter()
+                .map(|b| {
+                    start
+                        .skeleton
+                        .find(b.as_str().expect("name"))
+                        .expect("known bone")
+                })
+                .collect()
+        })
+        .collect();
+    let colors = stroke_colors(&stroke_bones, &chain_colors(&start.skeleton));
+    assert!(
+        colors.iter().any(|&c| c != colors[0]),
+        "strokes get different colours"
+    );
+    let (mut before, mut after) = (Scene::new(), Scene::new());
+    before
+        .add_rig(&start, &start.pose)
+        .add_strokes(&strokes, &colors);
+    after
+        .add_rig(&result, &result.pose)
+        .add_strokes(&strokes, &colors);
+    let options = RenderOptions {
+        tile: 300,
+        ..Default::default()
+    };
+    let cameras = side_by_side_cameras(&[("start", &before), ("result", &after)], &options);
+    let close = |a: Color, b: Color| {
+        (a.r as i32 - b.r as i32).abs()
+            + (a.g as i32 - b.g as i32).abs()
+            + (a.b as i32 - b.b as i32).abs()
+            < 12
+    };
+    for panel in &cameras {
+        let camera = panel[0]; // front
+        for (stroke, &color) in strokes.iter().zip(&colors) {
+            let p = stroke.points[stroke.points.len() / 2];
+            let (x, y, _) = camera.project(&p);
+            let found = (-1i64..=1).any(|dy| {
+                (-1i64..=1).any(|dx| {
+                    image
+                        .pixel(
+                            (x.round() as i64 + dx) as u32,
+                            (y.round() as i64 + dy) as u32,
+                        )
+                        .is_some_and(|c| close(c, color))
+                })
+            });
+            assert!(found, "stroke at {p:?} is drawn in {color:?}");
+        }
+    }
 }
 
 #[test]

@@ -98,3 +98,31 @@ pub fn chain_colors(skeleton: &Skeleton) -> Vec<Color> {
     }
     chain_of.into_iter().map(palette).collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_limb_shares_one_colour_and_limbs_differ() {
+        let rig = rigfit_core::humanoid::humanoid();
+        let s = &rig.skeleton;
+        let colors = chain_colors(s);
+        let of = |name: &str| colors[s.find(name).expect("humanoid joint")];
+        assert_eq!(of("LeftArm"), of("LeftForeArm"));
+        assert_eq!(of("LeftForeArm"), of("LeftHand"));
+        assert_ne!(of("LeftArm"), of("RightArm"));
+        assert_ne!(of("LeftUpLeg"), of("RightUpLeg"));
+        assert_ne!(of("LeftUpLeg"), of("LeftArm"));
+    }
+
+    #[test]
+    fn shading_and_mixing_stay_in_range() {
+        let c = Color::rgb(200, 100, 50);
+        assert_eq!(c.shaded(1.0), c);
+        assert_eq!(c.shaded(0.0), Color::rgb(0, 0, 0));
+        assert_eq!(c.shaded(7.0), c);
+        assert_eq!(c.mix(BACKGROUND, 1.0), BACKGROUND);
+        assert_eq!(c.mix(BACKGROUND, -1.0), c);
+    }
+}

@@ -469,4 +469,52 @@ mod tests {
         assert_eq!(p.len(), 5);
         assert!(p.windows(2).all(|w| w[0] < w[1]));
     }
+
+    #[test]
+    fn empty_degenerate_and_non_finite_scenes_draw_without_panic() {
+        let options = RenderOptions::default();
+        let empty = Scene::new();
+        let image = render(&empty, &options);
+        assert_eq!((image.width(), image.height()), (1200, 400));
+        let mut odd = Scene::new();
+        let p = Point3::new(1.0, 2.0, 3.0);
+        odd.add_points(&[p], None)
+            .add_points(&[Point3::new(f64::NAN, 0.0, f64::INFINITY)], Some(&[false]))
+            .add_polyline(&[p], color::palette(1))
+            .add_polyline(&[p, Point3::new(f64::NAN, 1.0, 1.0), p], color::palette(2))
+            .add_mesh(&rigfit_core::TriMesh {
+                vertices: vec![p, p, Point3::new(f64::NAN, 0.0, 0.0)],
+                normals: None,
+                triangles: vec![[0, 1, 2], [0, 1, 7]],
+            });
+        let image = render(&odd, &options);
+        // The single finite point lands in the middle of every tile.
+        for camera in render_cameras(&odd, &options) {
+            let (x, y, _) = camera.project(&p);
+            assert!(image.pixel(x.round() as u32, y.round() as u32) != Some(color::BACKGROUND));
+        }
+        let sheet = contact_sheet(&[("a", &empty), ("b", &odd)], &options, 1);
+        assert_eq!((sheet.width(), sheet.height()), (400, 2400));
+        assert!(image.png().is_ok());
+    }
+
+    #[test]
+    fn png_round_trip_keeps_the_pixels() {
+        let mut scene = Scene::new();
+        scene.add_polyline(
+            &[Point3::new(0.0, 0.0, 0.0), Point3::new(1.0, 1.0, 1.0)],
+            color::palette(3),
+        );
+        let options = RenderOptions {
+            tile: 64,
+            views: vec![View::Front],
+        };
+        let image = render(&scene, &options);
+        let back = Image::from_png(&image.png().expect("PNG")).expect("decodes");
+        assert_eq!((back.width(), back.height()), (64, 64));
+        for (x, y) in [(0, 0), (32, 32), (40, 20)] {
+            assert_eq!(back.pixel(x, y), image.pixel(x, y));
+        }
+        assert!(Image::from_png(b"not a png").is_err());
+    }
 }

@@ -13,6 +13,8 @@ pub const MAX_SIDE: u32 = 8192;
 pub enum RenderError {
     #[error("PNG encoding failed: {0}")]
     Png(String),
+    #[error("not a PNG picture rigfit can read: {0}")]
+    Decode(String),
 }
 
 /// An opaque RGBA picture (a `tiny_skia::Pixmap`).
@@ -49,6 +51,13 @@ impl Image {
         self.pixmap
             .encode_png()
             .map_err(|e| RenderError::Png(e.to_string()))
+    }
+
+    /// Reads PNG bytes (for tests that look at written pictures).
+    pub fn from_png(bytes: &[u8]) -> Result<Self, RenderError> {
+        Pixmap::decode_png(bytes)
+            .map(|pixmap| Self { pixmap })
+            .map_err(|e| RenderError::Decode(e.to_string()))
     }
 
     /// Copies `other` with its top-left corner at `(x, y)`.
