@@ -130,6 +130,20 @@ fn overlays_several_inputs_and_takes_views() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(png_size(&out).0, 512);
     assert!(stdout(&o).contains("from 2 file(s)"), "{}", stdout(&o));
+    // `auto`: the two views that show the most.
+    let hand = data("webxr_hand/left.glb");
+    let o = rigfit(&[
+        "render",
+        s(&hand),
+        "-o",
+        s(&out),
+        "--views",
+        "auto",
+        "--tile",
+        "128",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!((png_size(&out).0, png_size(&out).1), (256, 128));
 }
 
 #[test]

@@ -97,6 +97,22 @@ pub fn contact_sheet_cameras(
     )
 }
 
+/// The `count` views (at most three) that show the most of `scene`: largest projected
+/// bounding-box area first (a flat hand seen from its palm before its edge).
+pub fn best_views(scene: &Scene, count: usize) -> Vec<View> {
+    let e = scene.bounds().unwrap_or_else(unit_box).extent();
+    let area = |v: View| match v {
+        View::Front => e.x * e.y,
+        View::Side => e.z * e.y,
+        View::Top => e.x * e.z,
+    };
+    let mut views = View::ALL.to_vec();
+    // Stable: ties keep front, side, top.
+    views.sort_by(|a, b| area(*b).total_cmp(&area(*a)));
+    views.truncate(count.clamp(1, 3));
+    views
+}
+
 /// At most `max_shown` frame indices of `0..frame_count`, evenly spaced, first and last
 /// included.
 pub fn pick_frames(frame_count: usize, max_shown: usize) -> Vec<usize> {
@@ -457,6 +473,18 @@ fn draw_points(image: &mut Image, scene: &Scene, camera: &Camera, dot: i64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn best_views_face_the_largest_side() {
+        let mut plate = Scene::new();
+        // Thin in x: seen best from the side.
+        plate.add_points(
+            &[Point3::new(0.0, 0.0, 0.0), Point3::new(0.01, 1.0, 2.0)],
+            None,
+        );
+        assert_eq!(best_views(&plate, 2), vec![View::Side, View::Top]);
+        assert_eq!(best_views(&Scene::new(), 3), View::ALL.to_vec());
+    }
 
     #[test]
     fn pick_frames_spreads_evenly() {

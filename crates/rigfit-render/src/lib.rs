@@ -20,10 +20,12 @@
 //! # Ok::<(), rigfit_render::RenderError>(())
 //! ```
 //!
-//! `track` / `surface --render`: a contact sheet of evenly spaced frames, with the
-//! per-frame plots below it.
+//! `track` / `surface --render`: a contact sheet of evenly spaced frames (build scenes only
+//! for the frames [`pick_frames`] picks), with the per-frame plots below it. For `surface`,
+//! add the moved reference mesh with [`Scene::add_mesh`] and the scan with
+//! [`Scene::add_points`] and its inlier flags.
 //! ```
-//! use rigfit_render::{FrameStats, RenderOptions, Scene, tracking_sheet, pick_frames};
+//! use rigfit_render::{FrameStats, RenderOptions, Scene, View, pick_frames, tracking_sheet};
 //! # let (skeleton, pose, cloud) = rigfit_render::doc_example();
 //! # let frame_count = 40;
 //! let shown = pick_frames(frame_count, 8);
@@ -43,7 +45,8 @@
 //!     inliers: vec![812.0; frame_count],
 //!     seconds: vec![0.004; frame_count],
 //! };
-//! let png = tracking_sheet(&frames, &stats, &RenderOptions::default()).png()?;
+//! let options = RenderOptions { tile: 240, views: vec![View::Front, View::Side] };
+//! let png = tracking_sheet(&frames, &stats, &options).png()?;
 //! # Ok::<(), rigfit_render::RenderError>(())
 //! ```
 //!
@@ -60,8 +63,8 @@ mod scene;
 pub use camera::{Camera, View};
 pub use color::{Color, chain_colors};
 pub use draw::{
-    RenderOptions, contact_sheet, contact_sheet_cameras, pick_frames, render, render_cameras,
-    render_side_by_side, side_by_side_cameras,
+    RenderOptions, best_views, contact_sheet, contact_sheet_cameras, pick_frames, render,
+    render_cameras, render_side_by_side, side_by_side_cameras,
 };
 pub use image::{Image, RenderError};
 pub use plot::{Chart, FrameStats, Series, frame_plots, line_chart, plot_series};

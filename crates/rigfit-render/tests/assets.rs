@@ -199,7 +199,7 @@ fn nalgebra_mid(a: &Point3, b: &Point3) -> Point3 {
 }
 
 #[test]
-fn a_contact_sheet_frames_every_frame_alike() {
+fn a_contact_sheet_draws_every_frame_at_one_scale() {
     let file = read_rig(&data("cmu/01_01.bvh"), &RigOptions::default()).expect("bvh");
     let rig = &file.rig;
     let animation = &rig.animations[0];

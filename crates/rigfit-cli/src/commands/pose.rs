@@ -139,7 +139,7 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
         write_atomic(report, to_text(&value).as_bytes()).with_context(|| "writing the report")?;
     }
     if let Some(picture) = &args.render {
-        let image = side_by_side(&rig_file.rig, &strokes, &result, &args.picture.options());
+        let image = side_by_side(&rig_file.rig, &strokes, &result, &args.picture);
         super::render::write_png(picture, &image)?;
     }
     let matched = result.stroke_bones.iter().filter(|b| !b.is_empty()).count();
@@ -174,7 +174,7 @@ pub fn side_by_side(
     rig: &rigfit_core::Rig,
     strokes: &[rigfit_core::Stroke],
     result: &PoseResult,
-    options: &rigfit_render::RenderOptions,
+    picture: &super::render::PictureArgs,
 ) -> rigfit_render::Image {
     let joint_colors = rigfit_render::chain_colors(&rig.skeleton);
     let stroke_colors = rigfit_render::stroke_colors(&result.stroke_bones, &joint_colors);
@@ -186,5 +186,6 @@ pub fn side_by_side(
     posed
         .add_rig(rig, &result.pose)
         .add_strokes(strokes, &stroke_colors);
-    rigfit_render::render_side_by_side(&[("start", &start), ("result", &posed)], options)
+    let options = picture.options(&posed);
+    rigfit_render::render_side_by_side(&[("start", &start), ("result", &posed)], &options)
 }

@@ -17,16 +17,8 @@ pub enum ViewArg {
     Side,
     /// From +Y, looking down.
     Top,
-}
-
-impl From<ViewArg> for View {
-    fn from(v: ViewArg) -> Self {
-        match v {
-            ViewArg::Front => View::Front,
-            ViewArg::Side => View::Side,
-            ViewArg::Top => View::Top,
-        }
-    }
+    /// The two views that show the most (largest projected extent).
+    Auto,
 }
 
 /// Picture options shared by `render` and `--render`.
@@ -35,7 +27,8 @@ pub struct PictureArgs {
     /// The side of each view's square tile, in pixels.
     #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(64..=2048))]
     pub tile: u32,
-    /// The views to draw (comma-separated): front, side, top.
+    /// The views to draw (comma-separated): front, side, top, or auto (the two that show the
+    /// most).
     #[arg(
         long,
         value_enum,
@@ -46,10 +39,21 @@ pub struct PictureArgs {
 }
 
 impl PictureArgs {
-    pub fn options(&self) -> RenderOptions {
+    /// The options for drawing `scene` (`auto` picks its views from it).
+    pub fn options(&self, scene: &Scene) -> RenderOptions {
+        let mut views = Vec::new();
+        for v in &self.views {
+            match v {
+                ViewArg::Front => views.push(View::Front),
+                ViewArg::Side => views.push(View::Side),
+                ViewArg::Top => views.push(View::Top),
+                ViewArg::Auto => views.extend(rigfit_render::best_views(scene, 2)),
+            }
+        }
+        views.dedup();
         RenderOptions {
             tile: self.tile,
-            views: self.views.iter().map(|&v| v.into()).collect(),
+            views,
         }
     }
 }
@@ -83,7 +87,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     for input in &args.inputs {
         add_file(&mut scene, input, &rig_options)?;
     }
-    let image = rigfit_render::render(&scene, &args.picture.options());
+    let image = rigfit_render::render(&scene, &args.picture.options(&scene));
     write_png(&args.output, &image)?;
     println!(
         "drew {} points from {} file(s) into {} ({} x {})",
