@@ -182,7 +182,14 @@ impl Axis {
                     major.push((v, format_log_tick(k)));
                 }
                 if k < hi {
-                    minor.extend((2..10).map(|m| m as f64 * v));
+                    for m in 2..10 {
+                        // Few decades: 2 and 5 get labels too.
+                        if hi - lo <= 2 && (m == 2 || m == 5) {
+                            major.push((m as f64 * v, format_log_value(m, k)));
+                        } else {
+                            minor.push(m as f64 * v);
+                        }
+                    }
                 }
             }
         } else {
@@ -223,6 +230,17 @@ fn format_tick(v: f64, step: f64) -> String {
         format!("{v:.decimals$}")
     } else {
         format!("{v:.1e}")
+    }
+}
+
+/// `mantissa * 10^k` written plainly when short.
+fn format_log_value(mantissa: u32, k: i32) -> String {
+    if (0..=6).contains(&k) {
+        format!("{}", mantissa as u64 * 10u64.pow(k as u32))
+    } else if (-4..0).contains(&k) {
+        format!("{}", mantissa as f64 * 10f64.powi(k))
+    } else {
+        format!("{mantissa}e{k}")
     }
 }
 
@@ -405,6 +423,9 @@ mod tests {
 
     #[test]
     fn log_axis_spans_whole_decades() {
+        let few = Axis::from_values([12.0, 80.0].into_iter(), true);
+        let labels: Vec<String> = few.ticks().0.into_iter().map(|t| t.1).collect();
+        assert_eq!(labels, ["10", "20", "50", "100"]);
         let a = Axis::from_values([3.0, 4500.0].into_iter(), true);
         assert_eq!((a.lo, a.hi), (0.0, 4.0));
         let (major, minor) = a.ticks();
