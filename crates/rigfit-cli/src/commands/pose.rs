@@ -46,6 +46,12 @@ pub struct PoseArgs {
     /// The solver.
     #[arg(long, value_enum, default_value = "rigfit")]
     pub method: Method,
+    /// Draw the start pose and the result side by side into this .png, each stroke in the
+    /// colour of the bones it was matched to (strays grey).
+    #[arg(long, value_name = "FILE.png")]
+    pub render: Option<PathBuf>,
+    #[command(flatten)]
+    pub picture: super::render::PictureArgs,
 }
 
 /// Parses `--start-frame`.
@@ -95,6 +101,9 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
         skin: args.skin.clone(),
         start_frame: start_frame(args.start_frame.as_deref())?,
     };
+    if let Some(picture) = &args.render {
+        super::render::check_png_path(picture)?;
+    }
     let rig_file = read_rig(&args.rig, &options)?;
     if rig_file.rig.meshes.is_empty()
         && matches!(
@@ -129,6 +138,10 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
         );
         write_atomic(report, to_text(&value).as_bytes()).with_context(|| "writing the report")?;
     }
+    if let Some(picture) = &args.render {
+        let image = side_by_side(&rig_file.rig, &strokes, &result, &args.picture);
+        super::render::write_png(picture, &image)?;
+    }
     let matched = result.stroke_bones.iter().filter(|b| !b.is_empty()).count();
     println!(
         "posed {} from {} strokes ({} matched to bones, {} set aside) in {:.1} ms",
@@ -153,4 +166,26 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// The start pose and the result side by side, the strokes over both, each stroke in the
+/// colour of the bones it was matched to.
+pub fn side_by_side(
+    rig: &rigfit_core::Rig,
+    strokes: &[rigfit_core::Stroke],
+    result: &PoseResult,
+    picture: &super::render::PictureArgs,
+) -> rigfit_render::Image {
+    let joint_colors = rigfit_render::chain_colors(&rig.skeleton);
+    let stroke_colors = rigfit_render::stroke_colors(&result.stroke_bones, &joint_colors);
+    let mut start = rigfit_render::Scene::new();
+    start
+        .add_rig(rig, &rig.pose)
+        .add_strokes(strokes, &stroke_colors);
+    let mut posed = rigfit_render::Scene::new();
+    posed
+        .add_rig(rig, &result.pose)
+        .add_strokes(strokes, &stroke_colors);
+    let options = picture.options(&posed);
+    rigfit_render::render_side_by_side(&[("start", &start), ("result", &posed)], &options)
 }
