@@ -33,7 +33,7 @@ fn main() {
             "+ motion prediction",
             TrackOptions {
                 texture: TextureSource::ModelSurface,
-                predict_motion: true,
+                prediction: 0.5,
                 ..paper.clone()
             },
         ),
@@ -56,7 +56,12 @@ fn main() {
             let outcome = track_suites::track(suite, options);
             if std::env::var("VERBOSE").is_ok() {
                 for (f, e) in outcome.frame_errors.iter().enumerate() {
-                    eprintln!("{} {mname} frame {f}: {:.2}% ({} inliers)", suite.name, e * 100.0, outcome.inliers[f]);
+                    eprintln!(
+                        "{} {mname} frame {f}: {:.2}% ({} inliers)",
+                        suite.name,
+                        e * 100.0,
+                        outcome.inliers[f]
+                    );
                 }
             }
             println!(

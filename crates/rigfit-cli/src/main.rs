@@ -19,6 +19,8 @@ struct Cli {
 enum Command {
     /// Pose a rigged character (.glb/.gltf/.bvh) so its bones follow 3D strokes.
     Pose(commands::pose::PoseArgs),
+    /// Track an articulated body or hand (a rig) through a sequence of point clouds.
+    Track(commands::track::TrackArgs),
     /// The main job on the built-in humanoid: draw strokes, pose, write the results.
     Demo(commands::demo::DemoArgs),
     /// Show what a rig, mesh, point cloud or strokes file holds.
@@ -42,6 +44,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Pose(args) => commands::pose::run(&args),
+        Command::Track(args) => commands::track::run(&args),
         Command::Demo(args) => commands::demo::run(&args),
         Command::Info(args) => commands::info::run(&args),
         Command::DemoRig(args) => commands::demo_rig::run(&args),

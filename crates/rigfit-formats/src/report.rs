@@ -67,6 +67,20 @@ pub fn pose_report(
     })
 }
 
+/// One frame of the `track` report: the frame's file, every reported joint's world
+/// position, the inlier count and the seconds it took.
+pub fn track_frame_json(rig: &Rig, pose: &Pose, file: &str, inliers: usize, seconds: f64) -> Value {
+    let positions = rig.skeleton.joint_positions(pose);
+    let joints: Vec<Value> = rig
+        .reported_joints()
+        .map(|j| {
+            let p = positions[j];
+            json!({ "name": rig.skeleton.joint(j).name, "position": [p.x, p.y, p.z] })
+        })
+        .collect();
+    json!({ "file": file, "joints": joints, "inliers": inliers, "seconds": seconds })
+}
+
 /// Pretty JSON text with a final newline.
 pub fn to_text(value: &Value) -> String {
     let mut s = serde_json::to_string_pretty(value).expect("JSON values always serialise");

@@ -189,3 +189,43 @@ impl RigFile {
         }
     }
 }
+
+impl RigFile {
+    /// Writes the rig with one pose per time step to `out`, `1 / fps` seconds apart:
+    /// - `.glb`/`.gltf` from a glTF source: the input file with the last pose as node
+    ///   transforms and every pose as a key of the `rigfit` animation (replacing it);
+    /// - `.bvh` from a BVH source: the file's skeleton and channels, one frame per pose;
+    /// - `.bvh` from a glTF source, `.glb` from a BVH source: the rig written anew (a glTF
+    ///   written anew holds the last pose).
+    pub fn write_poses(&self, out: &Path, poses: &[Pose], fps: f64) -> Result<(), FormatError> {
+        let Some(last) = poses.last() else {
+            return Err(FormatError::parse(
+                out,
+                ParseError::new("poses", "nothing to write: no pose"),
+            ));
+        };
+        match (extension(out).as_str(), &self.source) {
+            ("glb" | "gltf", RigSource::Gltf(doc)) => {
+                let keys: Vec<(f64, Pose)> = poses
+                    .iter()
+                    .enumerate()
+                    .map(|(k, p)| (k as f64 / fps, self.file_pose(p)))
+                    .collect();
+                doc.write(out, &self.file_pose(last), &keys)
+            }
+            ("bvh", RigSource::Bvh(doc)) => {
+                let mut doc = doc.clone();
+                doc.frames.clear();
+                doc.frame_time = 1.0 / fps;
+                for (k, pose) in poses.iter().enumerate() {
+                    doc.set_frame_from_pose(k, pose);
+                }
+                doc.write(out)
+            }
+            ("bvh", RigSource::Gltf(_)) => {
+                BvhDocument::from_skeleton(&self.rig.skeleton, poses, 1.0 / fps).write(out)
+            }
+            _ => self.write_pose(out, last, None),
+        }
+    }
+}

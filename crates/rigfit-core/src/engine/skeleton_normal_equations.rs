@@ -10,7 +10,7 @@ use crate::engine::normal_equations::{NormalEquations, NormalSink};
 use crate::engine::subtree_moments::SubtreeMoments;
 use crate::engine::tree_solver::TreeNormalEquations;
 use crate::kinematics::{DofLayout, ForwardKinematics};
-use crate::math::Matrix3;
+use crate::math::{Matrix3, Vector3};
 
 /// `J^T W J`, `J^T W r` and the cost of a skeleton's parameters under one [`DofLayout`].
 #[derive(Clone, Debug)]
@@ -189,6 +189,11 @@ impl NormalSink for SkeletonNormalEquations {
 
     fn add_scalar(&mut self, r: f64, w: f64, col: usize, d: f64) {
         self.sink().add_scalar(r, w, col, d);
+    }
+
+    /// Dispatches once per point, not once per entry.
+    fn add_point_columns(&mut self, r: &Vector3, w: f64, cols: &[(usize, Vector3)]) {
+        self.sink().add_point_columns(r, w, cols);
     }
 
     fn add_jtj_block(

@@ -80,7 +80,12 @@ pub fn hand_motion(rig: &Rig, frames: usize) -> Vec<Pose> {
     let skeleton = &rig.skeleton;
     let root = skeleton.skin_root();
     let height = rig.height();
-    let fingers = ["index-finger", "middle-finger", "ring-finger", "pinky-finger"];
+    let fingers = [
+        "index-finger",
+        "middle-finger",
+        "ring-finger",
+        "pinky-finger",
+    ];
     (0..frames)
         .map(|f| {
             let t = f as f64 / frames.max(1) as f64;
@@ -109,7 +114,8 @@ pub fn hand_motion(rig: &Rig, frames: usize) -> Vec<Pose> {
             if let Some(r) = root {
                 let turn = 0.6 * (std::f64::consts::TAU * t).sin();
                 pose.local[r].rotation =
-                    Quat::from_scaled_axis(Vector3::new(0.0, turn, 0.2 * turn)) * pose.local[r].rotation;
+                    Quat::from_scaled_axis(Vector3::new(0.0, turn, 0.2 * turn))
+                        * pose.local[r].rotation;
                 let angle = std::f64::consts::TAU * t;
                 // Travel in a loop a third of the hand's size wide, in the parent's frame.
                 let scale = pose.local[r].scale.x.abs().max(1e-9);
@@ -135,7 +141,8 @@ pub fn surface_at(rig: &Rig, pose: &Pose, parts: &PartModel) -> TriMesh {
     for m in &rig.meshes {
         let base = mesh.vertices.len() as u32;
         mesh.vertices.extend(m.skin(&world).0);
-        mesh.triangles.extend(m.triangles.iter().map(|t| t.map(|i| i + base)));
+        mesh.triangles
+            .extend(m.triangles.iter().map(|t| t.map(|i| i + base)));
     }
     mesh
 }
@@ -277,7 +284,8 @@ pub fn make_sequence(
                 camera.render(&mesh);
             }
             let tolerance = 0.01 * height;
-            let candidates = sample_triangles(&mesh.vertices, &mesh.triangles, inliers * 4, &mut rng);
+            let candidates =
+                sample_triangles(&mesh.vertices, &mesh.triangles, inliers * 4, &mut rng);
             let mut points: Vec<Point3> = candidates
                 .into_iter()
                 .map(|(p, _)| p)
@@ -285,7 +293,11 @@ pub fn make_sequence(
                 .take(inliers)
                 .collect();
             for p in &mut points {
-                *p += Vector3::new(noise.sample(&mut rng), noise.sample(&mut rng), noise.sample(&mut rng));
+                *p += Vector3::new(
+                    noise.sample(&mut rng),
+                    noise.sample(&mut rng),
+                    noise.sample(&mut rng),
+                );
             }
             let mut outlier = vec![false; points.len()];
             let frame_bounds = Aabb::from_points(&mesh.vertices).unwrap_or(bounds);

@@ -139,7 +139,9 @@ impl PartModel {
                 .sum::<Matrix3>()
                 / n;
             let eig = SymmetricEigen::new(cov);
-            let radii = eig.eigenvalues.map(|l| (3.0 * l.max(0.0)).sqrt().max(min_radius));
+            let radii = eig
+                .eigenvalues
+                .map(|l| (3.0 * l.max(0.0)).sqrt().max(min_radius));
             let mut shape = eig.eigenvectors * Matrix3::from_diagonal(&radii);
             let Some(inv) = shape.try_inverse() else {
                 continue;
@@ -186,11 +188,8 @@ impl PartModel {
             };
             let u = axis.cross(&helper).normalize();
             let v = axis.cross(&u);
-            let shape = Matrix3::from_columns(&[
-                axis * (0.55 * length),
-                u * thickness,
-                v * thickness,
-            ]);
+            let shape =
+                Matrix3::from_columns(&[axis * (0.55 * length), u * thickness, v * thickness]);
             let center = Point3::from((a.coords + b.coords) * 0.5);
             if let Some(part) = to_joint_frame(&world[j], j, &center, &shape) {
                 parts.push(part);
@@ -210,11 +209,8 @@ impl PartModel {
             out.center.push(transform_point(world, &part.center));
             out.inv_shape
                 .push(l.try_inverse().unwrap_or_else(Matrix3::zeros));
-            out.reach.push(
-                (0..3)
-                    .map(|k| l.column(k).norm())
-                    .fold(0.0, f64::max),
-            );
+            out.reach
+                .push((0..3).map(|k| l.column(k).norm()).fold(0.0, f64::max));
         }
     }
 
@@ -247,7 +243,10 @@ impl PartModel {
     ) -> Option<SurfaceDistance> {
         let dominant = match hint {
             Some(h) => {
-                let mut best = (h, ellipsoid_distance(&placed.center[h], &placed.inv_shape[h], x).0);
+                let mut best = (
+                    h,
+                    ellipsoid_distance(&placed.center[h], &placed.inv_shape[h], x).0,
+                );
                 for &q in &self.adjacent[h] {
                     let d = ellipsoid_distance(&placed.center[q], &placed.inv_shape[q], x).0;
                     if d < best.1 {
@@ -315,7 +314,8 @@ impl PartModel {
             let idx = |r: usize, s: usize| base + (r * segments + s % segments) as u32;
             for r in 0..rings {
                 for s in 0..segments {
-                    let (a, b, c2, d) = (idx(r, s), idx(r, s + 1), idx(r + 1, s), idx(r + 1, s + 1));
+                    let (a, b, c2, d) =
+                        (idx(r, s), idx(r, s + 1), idx(r + 1, s), idx(r + 1, s + 1));
                     if r > 0 {
                         mesh.triangles.push([a, c2, b]);
                     }

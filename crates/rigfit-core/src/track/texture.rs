@@ -94,7 +94,8 @@ impl TexturePoint {
         let n = if self.weight >= 1.0 {
             a
         } else {
-            a * self.weight + linear_part(fk.world(self.joints[1])) * self.normal[1] * (1.0 - self.weight)
+            a * self.weight
+                + linear_part(fk.world(self.joints[1])) * self.normal[1] * (1.0 - self.weight)
         };
         n.try_normalize(1e-12).unwrap_or(n)
     }
@@ -141,7 +142,11 @@ impl TexturePoint {
         } else {
             // Not on one chain: sum both Jacobians, merging shared ancestors.
             for k in 0..2 {
-                let w = if k == 0 { self.weight } else { 1.0 - self.weight };
+                let w = if k == 0 {
+                    self.weight
+                } else {
+                    1.0 - self.weight
+                };
                 let p = fk.point(self.joints[k], &self.local[k]);
                 fk.point_jacobian(layout, self.joints[k], &p, |i, v| {
                     let v = v * (w * scale);
@@ -187,7 +192,9 @@ pub fn sample_triangles(
     (0..count)
         .map(|_| {
             let r = rng.random::<f64>() * total;
-            let t = cumulative.partition_point(|&c| c < r).min(triangles.len() - 1);
+            let t = cumulative
+                .partition_point(|&c| c < r)
+                .min(triangles.len() - 1);
             let [a, b, c] = triangles[t].map(|i| vertices[i as usize]);
             let (mut u, mut v) = (rng.random::<f64>(), rng.random::<f64>());
             if u + v > 1.0 {

@@ -1,0 +1,230 @@
+//! `rigfit track RIG FRAME...`: track an articulated body or hand through a sequence of
+//! point clouds (EM alignment of Dewaele et al. 2006 on the rig's articulated surface).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, anyhow, bail};
+use rigfit_core::track::{ArticulatedModel, FrameFit, TrackOptions, Tracker};
+use rigfit_core::{Point3, Pose};
+use rigfit_formats::error::{extension, write_atomic};
+use rigfit_formats::report::{to_text, track_frame_json};
+use rigfit_formats::rig_file::{RigOptions, read_rig};
+use serde_json::json;
+
+/// Which tracker to run.
+#[derive(Debug, Clone, Copy, clap::ValueEnum, PartialEq, Eq)]
+pub enum TrackMethod {
+    /// rigfit: the published EM with prediction, view-aware coarse-to-fine matching,
+    /// point-to-plane pulls and over-relaxed steps.
+    Rigfit,
+    /// The EM as published: texture points refreshed from the data every frame.
+    Paper,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct TrackArgs {
+    /// The rig: .glb / .gltf with a skin (its mesh gives the surface), or .bvh (ellipsoids
+    /// sized from bone lengths).
+    pub rig: PathBuf,
+    /// Point clouds or meshes, one per time step, in order (.ply, .obj).
+    #[arg(required = true)]
+    pub frames: Vec<PathBuf>,
+    /// Output: .glb/.gltf (the input rig with the track as its `rigfit` animation) or .bvh
+    /// (one frame per time step).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Write a JSON report: per frame, the joint positions, inliers and seconds.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// The glTF skin to track (by name); the first by default.
+    #[arg(long)]
+    pub skin: Option<String>,
+    /// BVH: the frame the tracker starts from (a number, or `rest`).
+    #[arg(long)]
+    pub start_frame: Option<String>,
+    /// The tracker.
+    #[arg(long, value_enum, default_value = "rigfit")]
+    pub method: TrackMethod,
+    /// Noise of the data, as a fraction of the character's height (the floor of sigma).
+    #[arg(long, default_value_t = 0.01)]
+    pub noise: f64,
+    /// The largest motion of a point between frames, as a fraction of the height.
+    #[arg(long)]
+    pub max_motion: Option<f64>,
+    /// Frames per second of the output animation.
+    #[arg(long, default_value_t = 30.0)]
+    pub fps: f64,
+    /// Draw a contact sheet of evenly spaced frames (skeleton and cloud, rejected points
+    /// in another colour) with inliers and time per frame, as a .png.
+    #[arg(long)]
+    pub render: Option<PathBuf>,
+    #[command(flatten)]
+    pub picture: super::render::PictureArgs,
+}
+
+/// Reads one frame's points (vertices of a .ply / .obj cloud or mesh).
+pub fn read_points(path: &Path) -> anyhow::Result<Vec<Point3>> {
+    let mesh = match extension(path).as_str() {
+        "ply" => rigfit_formats::ply::read_ply(path)?,
+        "obj" => rigfit_formats::obj::read_obj(path)?,
+        _ => bail!(
+            "{}: unsupported frame file (expected a .ply or .obj point cloud or mesh)",
+            path.display()
+        ),
+    };
+    if mesh.vertices.is_empty() {
+        bail!("{}: the point cloud is empty", path.display());
+    }
+    Ok(mesh.vertices)
+}
+
+/// One tracked frame.
+struct Tracked {
+    file: String,
+    fit: FrameFit,
+    seconds: f64,
+}
+
+pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
+    if let Some(picture) = &args.render {
+        super::render::check_png_path(picture)?;
+    }
+    if !(args.noise.is_finite() && args.noise > 0.0) {
+        bail!(
+            "--noise: expected a positive fraction of the height, got {}",
+            args.noise
+        );
+    }
+    if !(args.fps.is_finite() && args.fps > 0.0) {
+        bail!("--fps: expected a positive number, got {}", args.fps);
+    }
+    let rig_options = RigOptions {
+        skin: args.skin.clone(),
+        start_frame: super::pose::start_frame(args.start_frame.as_deref())?,
+    };
+    let rig_file = read_rig(&args.rig, &rig_options)?;
+    let rig = &rig_file.rig;
+    let mut options = match args.method {
+        TrackMethod::Rigfit => TrackOptions::default(),
+        TrackMethod::Paper => TrackOptions::paper(),
+    };
+    options.noise = args.noise;
+    if let Some(m) = args.max_motion {
+        if !(m.is_finite() && m > 0.0) {
+            bail!("--max-motion: expected a positive fraction of the height, got {m}");
+        }
+        options.max_motion = m.max(args.noise);
+    }
+    let model = ArticulatedModel::from_rig(rig, options.model_points)
+        .map_err(|e| anyhow!("{}: {e}", args.rig.display()))?;
+    let mut tracker =
+        Tracker::new(model, options).map_err(|e| anyhow!("{}: {e}", args.rig.display()))?;
+
+    let shown = rigfit_render::pick_frames(args.frames.len(), 8);
+    let mut shown_clouds: Vec<(usize, Vec<Point3>)> = Vec::new();
+    let progress = indicatif::ProgressBar::new(args.frames.len() as u64);
+    progress.set_style(
+        indicatif::ProgressStyle::with_template("tracking {bar:40} {pos}/{len} frames {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let mut tracked: Vec<Tracked> = Vec::new();
+    let mut failure: Option<anyhow::Error> = None;
+    for (k, path) in args.frames.iter().enumerate() {
+        let points = match read_points(path) {
+            Ok(p) => p,
+            Err(e) => {
+                failure = Some(e);
+                break;
+            }
+        };
+        let t0 = Instant::now();
+        let fit = match tracker.track(&points) {
+            Ok(fit) => fit,
+            Err(e) => {
+                failure = Some(anyhow!("{}: {e}", path.display()));
+                break;
+            }
+        };
+        let seconds = t0.elapsed().as_secs_f64();
+        progress.set_message(format!("{} inliers", fit.inliers));
+        progress.inc(1);
+        if args.render.is_some() && shown.contains(&k) {
+            shown_clouds.push((k, points));
+        }
+        tracked.push(Tracked {
+            file: path.display().to_string(),
+            fit,
+            seconds,
+        });
+    }
+    progress.finish_and_clear();
+
+    // Frames tracked before a failure are written all the same.
+    if !tracked.is_empty() {
+        let poses: Vec<Pose> = tracked.iter().map(|t| t.fit.pose.clone()).collect();
+        if let Some(out) = &args.output {
+            rig_file.write_poses(out, &poses, args.fps)?;
+        }
+        if let Some(report) = &args.report {
+            let frames: Vec<serde_json::Value> = tracked
+                .iter()
+                .map(|t| track_frame_json(rig, &t.fit.pose, &t.file, t.fit.inliers, t.seconds))
+                .collect();
+            write_atomic(report, to_text(&json!({ "frames": frames })).as_bytes())
+                .with_context(|| "writing the report")?;
+        }
+        if let Some(picture) = &args.render {
+            let image = sheet(&tracker, &tracked, &shown_clouds, &args.picture, rig);
+            super::render::write_png(picture, &image)?;
+        }
+        let total: f64 = tracked.iter().map(|t| t.seconds).sum();
+        println!(
+            "tracked {} of {} frames with {} in {:.1} ms per frame (mean {:.0} inliers)",
+            tracked.len(),
+            args.frames.len(),
+            args.rig.display(),
+            1000.0 * total / tracked.len() as f64,
+            tracked.iter().map(|t| t.fit.inliers as f64).sum::<f64>() / tracked.len() as f64
+        );
+    }
+    match failure {
+        Some(e) if tracked.is_empty() => Err(e),
+        Some(e) => Err(e.context(format!(
+            "stopped after {} tracked frame(s), which were written",
+            tracked.len()
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// The contact sheet of `--render`.
+fn sheet(
+    tracker: &Tracker,
+    tracked: &[Tracked],
+    clouds: &[(usize, Vec<Point3>)],
+    picture: &super::render::PictureArgs,
+    rig: &rigfit_core::Rig,
+) -> rigfit_render::Image {
+    let skeleton = &tracker.model().skeleton;
+    let frames: Vec<(String, rigfit_render::Scene)> = clouds
+        .iter()
+        .map(|(k, points)| {
+            let mut scene = rigfit_render::Scene::new();
+            scene
+                .add_skeleton(skeleton, &tracked[*k].fit.pose)
+                .add_points(points, Some(&tracked[*k].fit.inlier));
+            (format!("frame {k}"), scene)
+        })
+        .collect();
+    let stats = rigfit_render::FrameStats {
+        error: None,
+        error_label: String::new(),
+        inliers: tracked.iter().map(|t| t.fit.inliers as f64).collect(),
+        seconds: tracked.iter().map(|t| t.seconds).collect(),
+    };
+    let mut first = rigfit_render::Scene::new();
+    first.add_rig(rig, &rig.pose);
+    let options = picture.options(frames.first().map_or(&first, |f| &f.1));
+    rigfit_render::tracking_sheet(&frames, &stats, &options)
+}

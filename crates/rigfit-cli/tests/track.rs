@@ -1,0 +1,219 @@
+//! `rigfit track` end to end: frames written as PLY files from a ground-truth sequence,
+//! tracked through the command line, results read back; and bad input.
+
+mod common;
+#[path = "common/track_suites.rs"]
+mod track_suites;
+
+use std::path::{Path, PathBuf};
+
+use common::{assert_bad_input, rigfit, stderr};
+use rigfit_core::TriMesh;
+use rigfit_core::track::cases::SequenceOptions;
+use rigfit_formats::ply::write_ply;
+use rigfit_formats::rig_file::{RigOptions, read_rig};
+
+/// Writes a suite's first `n` frames as PLY clouds and its first true pose as the start
+/// rig (`start.glb` / `start.bvh`). Returns the start rig and the frame files.
+fn write_sequence(
+    dir: &Path,
+    name: &'static str,
+    n: usize,
+) -> (PathBuf, Vec<PathBuf>, track_suites::TrackSuite) {
+    // The full 60-frame motion (the scripted hand's speed depends on it), first n frames.
+    let mut suite = track_suites::suite(name, track_suites::FRAMES, &SequenceOptions::default());
+    suite.frames.truncate(n);
+    let source = match name {
+        "01_01" => "cmu/01_01.bvh",
+        "hand" => "webxr_hand/left.glb",
+        _ => "assimp/BCN_Epileptic.glb",
+    };
+    let rig_file = read_rig(&track_suites::asset(source), &RigOptions::default()).expect("rig");
+    let start = dir.join(if source.ends_with(".bvh") {
+        "start.bvh"
+    } else {
+        "start.glb"
+    });
+    rig_file
+        .write_pose(&start, &suite.frames[0].truth, None)
+        .expect("start rig written");
+    let files = suite
+        .frames
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            let path = dir.join(format!("frame_{k:04}.ply"));
+            let cloud = TriMesh {
+                vertices: f.points.clone(),
+                ..TriMesh::default()
+            };
+            write_ply(&path, &cloud).expect("frame written");
+            path
+        })
+        .collect();
+    (start, files, suite)
+}
+
+fn args<'a>(head: &[&'a str], files: &'a [PathBuf], tail: &[&'a str]) -> Vec<&'a str> {
+    let mut v: Vec<&str> = head.to_vec();
+    v.extend(files.iter().map(|f| f.to_str().expect("utf-8 path")));
+    v.extend_from_slice(tail);
+    v
+}
+
+#[test]
+fn tracks_a_hand_through_ply_frames_and_writes_glb_bvh_report_and_picture() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (start, files, suite) = write_sequence(dir.path(), "hand", 10);
+    let out = dir.path().join("track.glb");
+    let report = dir.path().join("track.json");
+    let picture = dir.path().join("track.png");
+    let o = rigfit(&args(
+        &["track", start.to_str().expect("utf-8")],
+        &files,
+        &[
+            "-o",
+            out.to_str().expect("utf-8"),
+            "--report",
+            report.to_str().expect("utf-8"),
+            "--render",
+            picture.to_str().expect("utf-8"),
+        ],
+    ));
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The report: one entry per frame, joints near the truth.
+    let value: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).expect("report")).expect("json");
+    let frames = value["frames"].as_array().expect("frames");
+    assert_eq!(frames.len(), 10);
+    let h = suite.model.height;
+    for (k, frame) in frames.iter().enumerate() {
+        assert!(
+            frame["file"]
+                .as_str()
+                .expect("file")
+                .ends_with(&format!("frame_{k:04}.ply"))
+        );
+        assert!(frame["inliers"].as_u64().is_some() && frame["seconds"].as_f64().is_some());
+        let truth = suite.rig.skeleton.joint_positions(&suite.frames[k].truth);
+        let joints = frame["joints"].as_array().expect("joints");
+        assert_eq!(joints.len(), suite.rig.reported_joints().count());
+        let mut error = 0.0;
+        for j in joints {
+            let index = suite
+                .rig
+                .skeleton
+                .find(j["name"].as_str().expect("name"))
+                .expect("a joint of the rig");
+            let p = j["position"].as_array().expect("position");
+            let p = rigfit_core::Point3::new(
+                p[0].as_f64().expect("x"),
+                p[1].as_f64().expect("y"),
+                p[2].as_f64().expect("z"),
+            );
+            error += (p - truth[index]).norm();
+        }
+        error /= joints.len() as f64 * h;
+        assert!(error < 0.04, "frame {k}: mean joint error {error}");
+    }
+    // The .glb holds the track as its `rigfit` animation.
+    let doc = rigfit_formats::gltf::read_gltf(&out, None).expect("output reads");
+    assert_eq!(doc.rigfit_keys().len(), 10);
+    let png = std::fs::read(&picture).expect("picture");
+    assert_eq!(&png[1..4], b"PNG");
+
+    // .bvh output: one frame per time step.
+    let bvh = dir.path().join("track.bvh");
+    let o = rigfit(&args(
+        &["track", start.to_str().expect("utf-8")],
+        &files[..4],
+        &["-o", bvh.to_str().expect("utf-8"), "--method", "paper"],
+    ));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("error"), "{}", stderr(&o));
+    let doc = rigfit_formats::bvh::read_bvh(&bvh).expect("bvh reads");
+    assert_eq!(doc.frames.len(), 4);
+}
+
+#[test]
+fn tracks_a_bare_bvh_skeleton() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (start, files, _) = write_sequence(dir.path(), "01_01", 5);
+    let out = dir.path().join("track.bvh");
+    let o = rigfit(&args(
+        &["track", start.to_str().expect("utf-8")],
+        &files,
+        &["-o", out.to_str().expect("utf-8")],
+    ));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc = rigfit_formats::bvh::read_bvh(&out).expect("bvh reads");
+    assert_eq!(doc.frames.len(), 5);
+}
+
+#[test]
+fn bad_frames_stop_with_one_line_and_keep_what_was_tracked() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (start, mut files, _) = write_sequence(dir.path(), "hand", 3);
+    let start_s = start.to_str().expect("utf-8").to_string();
+
+    // An empty cloud.
+    let empty = dir.path().join("empty.ply");
+    std::fs::write(&empty, "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nend_header\n").expect("write");
+    let o = rigfit(&["track", &start_s, empty.to_str().expect("utf-8")]);
+    assert_bad_input(&o, &empty);
+
+    // NaN coordinates.
+    let nan = dir.path().join("nan.ply");
+    std::fs::write(&nan, "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\nnan 1 2\n").expect("write");
+    let o = rigfit(&["track", &start_s, nan.to_str().expect("utf-8")]);
+    assert_bad_input(&o, &nan);
+
+    // A frame that fails to parse mid-sequence: the frames before it are written.
+    let broken = dir.path().join("frame_broken.ply");
+    std::fs::write(
+        &broken,
+        "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nend_header\n1\n2\n",
+    )
+    .expect("write");
+    files.insert(2, broken.clone());
+    let out = dir.path().join("partial.glb");
+    let report = dir.path().join("partial.json");
+    let o = rigfit(&args(
+        &["track", &start_s],
+        &files,
+        &[
+            "-o",
+            out.to_str().expect("utf-8"),
+            "--report",
+            report.to_str().expect("utf-8"),
+        ],
+    ));
+    assert_bad_input(&o, &broken);
+    assert!(stderr(&o).contains("2 tracked frame(s)"), "{}", stderr(&o));
+    let doc = rigfit_formats::gltf::read_gltf(&out, None).expect("partial output reads");
+    assert_eq!(doc.rigfit_keys().len(), 2);
+    let value: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).expect("report")).expect("json");
+    assert_eq!(value["frames"].as_array().expect("frames").len(), 2);
+
+    // Unsupported frame type, missing rig, bad picture path.
+    let txt = dir.path().join("frame.txt");
+    std::fs::write(&txt, "1 2 3").expect("write");
+    let o = rigfit(&["track", &start_s, txt.to_str().expect("utf-8")]);
+    assert_bad_input(&o, &txt);
+    let missing = dir.path().join("missing.glb");
+    let o = rigfit(&[
+        "track",
+        missing.to_str().expect("utf-8"),
+        files[0].to_str().expect("utf-8"),
+    ]);
+    assert_bad_input(&o, &missing);
+    let o = rigfit(&[
+        "track",
+        &start_s,
+        files[0].to_str().expect("utf-8"),
+        "--render",
+        "/nonexistent/dir/x.png",
+    ]);
+    assert_bad_input(&o, Path::new("x.png"));
+}
