@@ -13,31 +13,47 @@ use rigfit_core::track::{TextureSource, TrackOptions};
 
 fn main() {
     let paper = TrackOptions::paper();
+    let rigfit = TrackOptions::default();
+    // The paper's method, then rigfit's additions one at a time (each on top of the
+    // previous), ending with rigfit's defaults.
+    let no_refresh = TrackOptions {
+        texture: TextureSource::ModelSurface,
+        ..paper.clone()
+    };
+    let schedule = TrackOptions {
+        max_motion: rigfit.max_motion,
+        anneal_steps: rigfit.anneal_steps,
+        em_iterations: rigfit.em_iterations,
+        ..no_refresh.clone()
+    };
+    let relaxed = TrackOptions {
+        over_relaxation: rigfit.over_relaxation,
+        ..schedule.clone()
+    };
+    let predicted = TrackOptions {
+        prediction: rigfit.prediction,
+        ..relaxed.clone()
+    };
+    let visible = TrackOptions {
+        visible_only: true,
+        coarse_to_fine: true,
+        ..predicted.clone()
+    };
     let methods: Vec<(&str, TrackOptions)> = vec![
         ("paper (EM, texture refreshed from data)", paper.clone()),
         (
-            "+ surface fit (eq. 21)",
+            "paper + surface fit pass (eq. 21)",
             TrackOptions {
                 surface_fit_steps: 2,
                 ..paper.clone()
             },
         ),
-        (
-            "+ model-surface texture",
-            TrackOptions {
-                texture: TextureSource::ModelSurface,
-                ..paper.clone()
-            },
-        ),
-        (
-            "+ motion prediction",
-            TrackOptions {
-                texture: TextureSource::ModelSurface,
-                prediction: 0.5,
-                ..paper.clone()
-            },
-        ),
-        ("rigfit (+ coarse-to-fine)", TrackOptions::default()),
+        ("+ texture kept on the model surface", no_refresh),
+        ("+ shorter schedule (sigma0 4%, 4 steps)", schedule),
+        ("+ over-relaxed M-steps (1.8)", relaxed),
+        ("+ motion prediction (0.5)", predicted),
+        ("+ view-aware, coarse-to-fine matching", visible),
+        ("rigfit (+ point-to-plane pulls)", rigfit),
     ];
     let names: Vec<String> = std::env::args().skip(1).collect();
     let all = ["BCN_Epileptic", "Testwuson", "hand", "01_01"];

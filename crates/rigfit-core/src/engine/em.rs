@@ -84,6 +84,49 @@ impl Sums {
     }
 }
 
+/// For each data point, the model points within a radius of it: found once with a
+/// [`PointGrid`] and reused by several E-steps while the model moves less than the margin
+/// added to the kernel's cutoff.
+#[derive(Clone, Debug, Default)]
+pub struct Candidates {
+    /// `model[start[j]..start[j + 1]]` are data point `j`'s candidates.
+    start: Vec<u32>,
+    model: Vec<u32>,
+}
+
+impl Candidates {
+    /// Finds, for every data point, the model points within `radius`.
+    pub fn find(&mut self, data: &[Point3], model: &[Point3], radius: f64, grid: &mut PointGrid) {
+        grid.rebuild(model, radius);
+        self.start.clear();
+        self.model.clear();
+        self.start.push(0);
+        for y in data {
+            grid.for_each_within(y, radius, |i, _| self.model.push(i as u32));
+            self.start.push(self.model.len() as u32);
+        }
+    }
+
+    /// Candidates kept, over all data points.
+    pub fn len(&self) -> usize {
+        self.model.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.model.is_empty()
+    }
+
+    fn of(&self, j: usize) -> &[u32] {
+        &self.model[self.start[j] as usize..self.start[j + 1] as usize]
+    }
+}
+
+/// The radius [`Candidates`] should be found with for E-steps at `sigma` while model
+/// points move by up to `margin`.
+pub fn candidate_radius(sigma: f64, margin: f64) -> f64 {
+    CUTOFF_SIGMAS * sigma + margin
+}
+
 /// One E-step (eq. 17) of data `data` (each with weight `data_weight[j]`, 1 when `None`)
 /// against model points `model` (each standing for `model_weight[i]` points, 1 when `None`)
 /// at width `sigma`, with outlier constant `outlier_c`. `grid` is rebuilt over `model`.
@@ -97,9 +140,34 @@ pub fn em_step(
     grid: &mut PointGrid,
     out: &mut EmStep,
 ) {
+    let mut candidates = Candidates::default();
+    candidates.find(data, model, candidate_radius(sigma, 0.0), grid);
+    em_step_with(
+        data,
+        data_weight,
+        model,
+        model_weight,
+        sigma,
+        outlier_c,
+        &candidates,
+        out,
+    );
+}
+
+/// [`em_step`] over neighbours found beforehand: only `candidates` are considered, and of
+/// them those within the kernel's cutoff of their data point now.
+pub fn em_step_with(
+    data: &[Point3],
+    data_weight: Option<&[f64]>,
+    model: &[Point3],
+    model_weight: Option<&[f64]>,
+    sigma: f64,
+    outlier_c: f64,
+    candidates: &Candidates,
+    out: &mut EmStep,
+) {
     let n = model.len();
-    let radius = CUTOFF_SIGMAS * sigma;
-    grid.rebuild(model, radius);
+    let cutoff2 = (CUTOFF_SIGMAS * sigma).powi(2);
     let inv_two_s2 = 0.5 / (sigma * sigma);
     out.inlier.clear();
     out.inlier.resize(data.len(), 0.0);
@@ -110,11 +178,16 @@ pub fn em_step(
     let visit = |j: usize, y: &Point3, sums: &mut Sums, scratch: &mut Vec<(usize, f64)>| {
         scratch.clear();
         let mut total = 0.0;
-        grid.for_each_within(y, radius, |i, d2| {
+        for &i in candidates.of(j) {
+            let i = i as usize;
+            let d2 = (model[i] - y).norm_squared();
+            if d2 > cutoff2 {
+                continue;
+            }
             let e = model_weight.map_or(1.0, |w| w[i]) * exp_negative(d2 * inv_two_s2);
             total += e;
             scratch.push((i, e));
-        });
+        }
         if total == 0.0 {
             return (0.0, u32::MAX);
         }

@@ -21,8 +21,10 @@ pub struct PointGrid {
     fill: Vec<u32>,
 }
 
-/// The most cells a grid allocates; coarser cells are used beyond it.
-const MAX_CELLS: usize = 1 << 21;
+/// The most cells a grid allocates per point (at least [`MIN_CELLS`]); coarser cells
+/// are used beyond it, so a few far points cannot make the grid huge.
+const CELLS_PER_POINT: usize = 8;
+const MIN_CELLS: usize = 4096;
 
 impl PointGrid {
     /// A grid over `points` whose cells are at least `cell` wide (wider when the points
@@ -58,7 +60,8 @@ impl PointGrid {
             extent.max().max(1e-12)
         };
         let dims = |cell: f64| extent.map(|e| (e / cell).floor() as usize + 1);
-        while dims(cell).iter().product::<usize>() > MAX_CELLS {
+        let max_cells = (CELLS_PER_POINT * points.len()).max(MIN_CELLS);
+        while dims(cell).iter().product::<usize>() > max_cells {
             cell *= 2.0;
         }
         let d = dims(cell);
@@ -158,15 +161,20 @@ impl PointGrid {
 /// One representative per occupied cube of side `cell`: the first point met in it, and how
 /// many points the cube holds. Non-finite points are dropped.
 pub fn voxel_subsample(points: &[Point3], cell: f64) -> Vec<(usize, u32)> {
-    let grid = PointGrid::new(points, cell);
-    let mut out = Vec::new();
-    for c in 0..grid.starts.len().saturating_sub(1) {
-        let (a, b) = (grid.starts[c] as usize, grid.starts[c + 1] as usize);
-        if b > a {
-            let first = grid.order[a..b].iter().copied().min().unwrap_or(0);
-            out.push((first as usize, (b - a) as u32));
+    let Some(origin) = points.iter().find(|p| p.iter().all(|c| c.is_finite())) else {
+        return Vec::new();
+    };
+    let mut cells: std::collections::HashMap<[i64; 3], (usize, u32)> =
+        std::collections::HashMap::with_capacity(points.len() / 2);
+    for (i, p) in points.iter().enumerate() {
+        let u = (p - origin) / cell;
+        if !u.iter().all(|c| c.is_finite() && c.abs() < 1e15) {
+            continue;
         }
+        let key = [u.x.floor() as i64, u.y.floor() as i64, u.z.floor() as i64];
+        cells.entry(key).and_modify(|e| e.1 += 1).or_insert((i, 1));
     }
+    let mut out: Vec<(usize, u32)> = cells.into_values().collect();
     out.sort_unstable_by_key(|&(i, _)| i);
     out
 }
@@ -206,7 +214,7 @@ mod tests {
             .collect();
         let reps = voxel_subsample(&points, 0.25);
         assert_eq!(reps.iter().map(|r| r.1 as usize).sum::<usize>(), 1000);
-        assert!(reps.len() <= 64 && reps.len() > 20);
+        assert!(reps.len() <= 125 && reps.len() > 20);
     }
 
     #[test]

@@ -16,7 +16,9 @@ pub mod texture;
 
 use rand::SeedableRng;
 
-use crate::engine::em::{DEWAELE_OUTLIER_CONSTANT, EmStep, em_step};
+use crate::engine::em::{
+    Candidates, DEWAELE_OUTLIER_CONSTANT, EmStep, candidate_radius, em_step, em_step_with,
+};
 use crate::engine::point_grid::{PointGrid, voxel_subsample};
 use crate::engine::{NormalSink, SkeletonNormalEquations, SubtreeMoments};
 use crate::kinematics::{DofLayout, ForwardKinematics};
@@ -103,7 +105,7 @@ impl Default for TrackOptions {
             noise: 0.01,
             anneal_steps: 4,
             em_iterations: 1,
-            final_em_iterations: 8,
+            final_em_iterations: 6,
             gauss_newton_steps: 1,
             outlier_constant: DEWAELE_OUTLIER_CONSTANT,
             bending_exponent: 2.0,
@@ -219,13 +221,17 @@ impl ArticulatedModel {
 #[derive(Clone, Debug)]
 pub struct FrameFit {
     pub pose: Pose,
-    /// Data points whose posterior of being an inlier is at least one half.
+    /// Data points taken as inliers (see [`FrameFit::inlier`]).
     pub inliers: usize,
-    /// Per data point, whether it was taken as an inlier.
+    /// Per data point, whether it was taken as an inlier: its posterior of belonging to the
+    /// model, at the noise level, is at least 0.1.
     pub inlier: Vec<bool>,
     /// EM iterations run.
     pub em_iterations: usize,
 }
+
+/// A point standing for a voxel's points: (index, count).
+type Representative = (usize, u32);
 
 /// A point pulled toward a target with a weight.
 #[derive(Clone, Copy, Debug)]
@@ -247,6 +253,7 @@ pub struct Tracker {
     /// Typical spacing between texture points.
     spacing: f64,
     grid: PointGrid,
+    candidates: Candidates,
     em: EmStep,
     moments: SubtreeMoments,
     normal: Option<SkeletonNormalEquations>,
@@ -263,6 +270,17 @@ const EXACT_BLEND_MAX: f64 = 0.95;
 
 /// EM at the noise level stops when no joint moved more than this (fraction of height).
 const CONVERGED_MOTION: f64 = 1e-3;
+
+/// A datum is an inlier when its posterior of belonging to the model (eq. 17 summed over
+/// the model points) is at least this: the model's kernel sum there is at least `c / 9`
+/// (about one texture point within 1.3 sigma). Texture points are sparse next to sigma, so
+/// one half would call most of the surface's data outliers.
+const INLIER_POSTERIOR: f64 = 0.1;
+
+/// Coarse-to-fine: above the noise level, points are merged into cubes this many `sigma`
+/// wide (a representative weighted by its count), so a Gaussian of width `sigma` still
+/// sees a few of them, and the work per level shrinks as `sigma` grows.
+const VOXEL_SIGMAS: f64 = 1.0;
 
 /// A texture point with at least this EM weight at the noise level counts as seen.
 const SEEN_WEIGHT: f64 = 1e-3;
@@ -312,6 +330,7 @@ impl Tracker {
             texture,
             spacing,
             grid: PointGrid::default(),
+            candidates: Candidates::default(),
             em: EmStep::default(),
             moments: SubtreeMoments::new(),
             normal: None,
@@ -377,6 +396,7 @@ impl Tracker {
             all.clone()
         };
         let mut world: Vec<Point3> = Vec::new();
+        let (mut finds, mut timing) = (0, [0.0; 3]);
         for level in 0..=steps {
             let sigma = sigma0 * kappa.powi(level as i32);
             let last = level == steps;
@@ -385,12 +405,12 @@ impl Tracker {
             } else {
                 &seen
             };
-            let voxel = 0.5 * sigma;
+            let voxel = VOXEL_SIGMAS * sigma;
             let coarse = self.options.coarse_to_fine && !last && voxel > 1.5 * self.spacing;
             // Representatives at this level: (texture index, count) and (data index, count).
             world.clear();
             world.extend(active.iter().map(|&i| self.texture[i].world(&fk)));
-            let (model_reps, data_reps): (Vec<(usize, u32)>, Vec<(usize, u32)>) = if coarse {
+            let (model_reps, data_reps): (Vec<Representative>, Vec<Representative>) = if coarse {
                 let reps = voxel_subsample(&world, voxel)
                     .into_iter()
                     .map(|(k, c)| (active[k], c))
@@ -409,18 +429,46 @@ impl Tracker {
             } else {
                 self.options.em_iterations
             };
+            let level_data = if coarse { &points[..] } else { data };
+            // Neighbours found once per level, with a margin for the motion within it.
+            let margin = 0.5 * sigma;
+            let mut found_at: Option<Vec<Point3>> = None;
             for _ in 0..rounds {
                 iterations += 1;
                 world.clear();
                 world.extend(model_reps.iter().map(|&(i, _)| self.texture[i].world(&fk)));
-                em_step(
-                    if coarse { &points } else { data },
+                let stale = found_at.as_ref().is_none_or(|at| {
+                    at.iter()
+                        .zip(&world)
+                        .any(|(a, b)| (a - b).norm_squared() > margin * margin)
+                });
+                let t0 = std::time::Instant::now();
+                if stale {
+                    self.candidates.find(
+                        level_data,
+                        &world,
+                        candidate_radius(sigma, margin),
+                        &mut self.grid,
+                    );
+                    found_at = Some(world.clone());
+                    finds += 1;
+                    tracing::trace!(
+                        "level {level} sigma {:.4}: {} data, {} model, {} candidates",
+                        sigma / h,
+                        level_data.len(),
+                        world.len(),
+                        self.candidates.len()
+                    );
+                }
+                let t1 = std::time::Instant::now();
+                em_step_with(
+                    level_data,
                     data_weight.as_deref(),
                     &world,
                     model_weight.as_deref(),
                     sigma,
                     self.options.outlier_constant,
-                    &mut self.grid,
+                    &self.candidates,
                     &mut self.em,
                 );
                 // Eq. (20): each model point pulled to G_i with weight lambda_i.
@@ -434,7 +482,7 @@ impl Tracker {
                         if self.options.point_to_plane && self.model.surface_normals.is_some() {
                             // Only the normal part of the pull: the point-to-plane
                             // gradient, free of the tangential bias of blurred centroids.
-                            let x = point.world(&fk);
+                            let x = world[k];
                             let n = point.world_normal(&fk);
                             target = x + n * n.dot(&(target - x));
                         }
@@ -445,6 +493,7 @@ impl Tracker {
                         }
                     })
                     .collect();
+                let t2 = std::time::Instant::now();
                 let before = fk.clone();
                 self.fit(
                     &pulls,
@@ -454,6 +503,10 @@ impl Tracker {
                     self.options.over_relaxation,
                 );
                 fk.update(&self.model.skeleton, &self.pose);
+                let t3 = std::time::Instant::now();
+                timing[0] += (t1 - t0).as_secs_f64();
+                timing[1] += (t2 - t1).as_secs_f64();
+                timing[2] += (t3 - t2).as_secs_f64();
                 // At the noise level, EM runs until the joints stop moving.
                 let moved = (0..fk.len())
                     .map(|j| (fk.origin(j) - before.origin(j)).norm())
@@ -463,13 +516,24 @@ impl Tracker {
                 }
             }
         }
+        tracing::trace!(
+            "{iterations} EM iterations, {finds} neighbour searches: {:.2} ms searching, {:.2} ms E-steps, {:.2} ms M-steps",
+            timing[0] * 1e3,
+            timing[1] * 1e3,
+            timing[2] * 1e3
+        );
         // The final E-step ran over every texture point at full resolution: which of them
         // the data supports is the view for the next frame.
         self.seen.clear();
         self.seen
             .extend(self.em.lambda.iter().map(|&l| l > SEEN_WEIGHT));
         // The final E-step's posteriors say which data points are inliers.
-        let inlier: Vec<bool> = self.em.inlier.iter().map(|&a| a >= 0.5).collect();
+        let inlier: Vec<bool> = self
+            .em
+            .inlier
+            .iter()
+            .map(|&a| a >= INLIER_POSTERIOR)
+            .collect();
         let best = self.em.best.clone();
         if self.options.surface_fit_steps > 0 {
             self.surface_fit(data, &inlier, &best, sigma_min, &start);
@@ -593,9 +657,9 @@ impl Tracker {
                 fresh.push(t);
             }
         }
-        if fresh.len() * 4 >= self.texture.len().min(self.options.model_points) {
-            // Keep at most `model_points`, spread evenly through the data order.
-            let keep = self.options.model_points.max(1);
+        // As many texture points as the model started with, at most.
+        let keep = self.model.surface_samples.len().max(1);
+        if fresh.len() * 4 >= self.texture.len().min(keep) {
             if fresh.len() > keep {
                 let stride = fresh.len() as f64 / keep as f64;
                 fresh = (0..keep)
