@@ -105,13 +105,7 @@ fn add_tube(
     child: usize,
 ) {
     let axis = (b - a).normalize();
-    let helper = if axis.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let u = axis.cross(&helper).normalize();
-    let v = axis.cross(&u);
+    let (u, v) = crate::math::perpendicular_basis(&axis);
     let base = mesh.positions.len() as u32;
     let normals = mesh.normals.get_or_insert_with(Vec::new);
     let j = joint as u32;

@@ -121,6 +121,19 @@ pub fn exp_rotation(w: &Vector3) -> Quat {
     Quat::from_scaled_axis(*w)
 }
 
+/// Two unit vectors completing the unit vector `axis` to a right-handed orthonormal basis
+/// `(axis, u, v)`.
+pub fn perpendicular_basis(axis: &Vector3) -> (Vector3, Vector3) {
+    let helper = if axis.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let u = axis.cross(&helper).normalize();
+    let v = axis.cross(&u);
+    (u, v)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

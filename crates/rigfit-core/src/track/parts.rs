@@ -181,13 +181,7 @@ impl PartModel {
             }
             let axis = (b - a) / length;
             let thickness = (0.25 * length).clamp(0.02 * height, 0.07 * height);
-            let helper = if axis.x.abs() < 0.9 {
-                Vector3::x()
-            } else {
-                Vector3::y()
-            };
-            let u = axis.cross(&helper).normalize();
-            let v = axis.cross(&u);
+            let (u, v) = crate::math::perpendicular_basis(&axis);
             let shape =
                 Matrix3::from_columns(&[axis * (0.55 * length), u * thickness, v * thickness]);
             let center = Point3::from((a.coords + b.coords) * 0.5);
