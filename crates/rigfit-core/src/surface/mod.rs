@@ -1,0 +1,253 @@
+//! Deformable surface tracking (Cagniart, Boyer and Ilic 2010, "Probabilistic deformable
+//! surface tracking from multiple videos"): a reference mesh, cut into patches that each move
+//! rigidly ([`model`], [`patches`]), is fitted to every frame of a sequence of point clouds
+//! by Expectation-Maximisation: soft assignments of the points to the patches with an outlier
+//! class ([`estep`]), then one Gauss-Newton step on the data term plus the rigidity energy
+//! ([`solve`]). Each frame starts from the previous one's result.
+//!
+//! [`cases`] draws ground-truth scan sequences from skinned characters (tests, benches).
+
+pub mod cases;
+pub mod estep;
+pub mod model;
+pub mod patches;
+pub mod solve;
+
+pub use estep::{DataTermOptions, Observations, VertexTargets, e_step, estimate_normals};
+pub use model::{PatchModel, PatchOptions, PatchPose};
+pub use solve::{PatchSystem, SolveError, StepWeights, gauss_newton_step};
+
+use crate::geometry::TriMesh;
+use crate::math::{Point3, Vector3};
+
+/// Problems with the inputs of surface tracking. Each names the element at fault.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SurfaceError {
+    #[error("the reference mesh has no vertices")]
+    EmptyReference,
+    #[error(
+        "the reference mesh has no triangles (surface tracking needs faces for normals and patches)"
+    )]
+    NoFaces,
+    #[error("triangle {index}: refers to a vertex that does not exist")]
+    BadFace { index: usize },
+    #[error("the reference mesh has no extent (every vertex at one point)")]
+    Degenerate,
+    #[error("{what} {index}: coordinate is not a finite number (NaN or infinity)")]
+    NonFinite { what: &'static str, index: usize },
+    #[error("the frame has no points")]
+    EmptyFrame,
+    #[error("the frame has {normals} normals for {points} points")]
+    NormalCount { normals: usize, points: usize },
+    #[error(transparent)]
+    Solve(#[from] SolveError),
+}
+
+/// Everything that tunes the tracker. Lengths are fractions of the reference's bounding-box
+/// diagonal.
+#[derive(Clone, Debug)]
+pub struct SurfaceOptions {
+    pub patches: PatchOptions,
+    pub data: DataTermOptions,
+    /// Weight of the rigidity energy (eq. 4) against the data term, per squared patch radius.
+    pub rigidity: f64,
+    /// `sigma` at the start of every frame (the largest motion expected between frames).
+    pub initial_sigma: f64,
+    /// `sigma` never falls below this (the sensor's noise).
+    pub min_sigma: f64,
+    /// EM iterations per frame at most.
+    pub max_iterations: usize,
+    /// A frame is done when no vertex moved more than this in an iteration.
+    pub tolerance: f64,
+    /// Levenberg-Marquardt damping of the Gauss-Newton step.
+    pub damping: f64,
+}
+
+impl Default for SurfaceOptions {
+    fn default() -> Self {
+        Self {
+            patches: PatchOptions::default(),
+            data: DataTermOptions::default(),
+            rigidity: 1.0,
+            initial_sigma: 0.04,
+            min_sigma: 0.002,
+            max_iterations: 12,
+            tolerance: 1e-4,
+            damping: 1e-3,
+        }
+    }
+}
+
+/// The result of one frame.
+#[derive(Clone, Debug)]
+pub struct FrameFit {
+    /// The deformed reference, vertex for vertex.
+    pub positions: Vec<Point3>,
+    /// Points whose outlier posterior is below one half.
+    pub inliers: usize,
+    /// Root mean square distance of the points to their vertices, weighted by posteriors.
+    pub rms: f64,
+    pub iterations: usize,
+    /// The final `sigma`.
+    pub sigma: f64,
+}
+
+impl Observations {
+    /// The observations of a frame file's content: its normals when it has usable ones, else
+    /// its faces' normals, else normals estimated from the points (unsigned).
+    pub fn from_mesh(mesh: &TriMesh) -> Result<Self, SurfaceError> {
+        if mesh.vertices.is_empty() {
+            return Err(SurfaceError::EmptyFrame);
+        }
+        if let Some(i) = mesh
+            .vertices
+            .iter()
+            .position(|p| p.iter().any(|x| !x.is_finite()))
+        {
+            return Err(SurfaceError::NonFinite {
+                what: "point",
+                index: i,
+            });
+        }
+        let usable = |n: &[Vector3]| {
+            n.len() == mesh.vertices.len()
+                && n.iter()
+                    .all(|v| v.iter().all(|x| x.is_finite()) && v.norm() > 1e-12)
+        };
+        let (normals, oriented) = match &mesh.normals {
+            Some(n) if usable(n) => (n.iter().map(|v| v.normalize()).collect(), true),
+            _ => {
+                let from_faces = (!mesh.triangles.is_empty()
+                    && mesh
+                        .triangles
+                        .iter()
+                        .all(|t| t.iter().all(|&i| (i as usize) < mesh.vertices.len())))
+                .then(|| mesh.vertex_normals_from_faces());
+                match from_faces {
+                    Some(n) if usable(&n) => (n, true),
+                    _ => (estimate_normals(&mesh.vertices, 12), false),
+                }
+            }
+        };
+        Ok(Self {
+            points: mesh.vertices.clone(),
+            normals,
+            oriented,
+        })
+    }
+
+    fn check(&self) -> Result<(), SurfaceError> {
+        if self.points.is_empty() {
+            return Err(SurfaceError::EmptyFrame);
+        }
+        if self.normals.len() != self.points.len() {
+            return Err(SurfaceError::NormalCount {
+                normals: self.normals.len(),
+                points: self.points.len(),
+            });
+        }
+        for (i, (p, n)) in self.points.iter().zip(&self.normals).enumerate() {
+            if p.iter().chain(n.iter()).any(|x| !x.is_finite()) {
+                return Err(SurfaceError::NonFinite { what: "point", index: i });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Tracks one reference mesh through a sequence of frames.
+#[derive(Debug)]
+pub struct SurfaceTracker {
+    pub model: PatchModel,
+    pub pose: PatchPose,
+    system: PatchSystem,
+    pub options: SurfaceOptions,
+}
+
+impl SurfaceTracker {
+    /// Cuts the reference into patches and prepares the solver (symbolic factorisation).
+    pub fn new(reference: &TriMesh, options: &SurfaceOptions) -> Result<Self, SurfaceError> {
+        let model = PatchModel::new(reference, &options.patches)?;
+        let system = PatchSystem::new(&model)?;
+        Ok(Self {
+            pose: model.rest_pose(),
+            model,
+            system,
+            options: options.clone(),
+        })
+    }
+
+    /// The deformed reference for the current parameters.
+    pub fn positions(&self) -> Vec<Point3> {
+        self.model.positions(&self.pose)
+    }
+
+    /// Fits the next frame, starting from the current parameters (the previous frame's).
+    pub fn track(&mut self, data: &Observations) -> Result<FrameFit, SurfaceError> {
+        data.check()?;
+        let diagonal = self.model.diagonal;
+        let min_sigma = self.options.min_sigma * diagonal;
+        let mut sigma = (self.options.initial_sigma * diagonal).max(min_sigma);
+        let radius = self.options.patches.radius * diagonal;
+        let mut positions = self.model.positions(&self.pose);
+        let mut targets = VertexTargets::default();
+        let mut iterations = 0;
+        for _ in 0..self.options.max_iterations {
+            iterations += 1;
+            targets = e_step(
+                &self.model,
+                &self.pose,
+                &positions,
+                data,
+                sigma,
+                &self.options.data,
+            );
+            let total = targets.total_weight();
+            if total <= 1e-9 {
+                break;
+            }
+            // Eq. 15: data term (1 / sigma^2 per the Gaussian of eq. 7) plus rigidity.
+            let weights = StepWeights {
+                data: 1.0 / (sigma * sigma),
+                rigidity: self.options.rigidity / (radius * radius),
+                damping: self.options.damping,
+            };
+            gauss_newton_step(
+                &self.model,
+                &self.system,
+                &mut self.pose,
+                &positions,
+                &targets,
+                &weights,
+            )?;
+            let moved_to = self.model.positions(&self.pose);
+            // The M-step for sigma: the weighted mean squared residual per coordinate.
+            sigma = (targets.residual(&moved_to) / (3.0 * total))
+                .sqrt()
+                .max(min_sigma);
+            let moved = moved_to
+                .iter()
+                .zip(&positions)
+                .map(|(a, b)| (a - b).norm_squared())
+                .fold(0.0, f64::max)
+                .sqrt();
+            positions = moved_to;
+            if moved < self.options.tolerance * diagonal {
+                break;
+            }
+        }
+        let total = targets.total_weight();
+        let rms = if total > 0.0 {
+            (targets.weighted_residual / total).sqrt()
+        } else {
+            0.0
+        };
+        Ok(FrameFit {
+            positions,
+            inliers: targets.inliers,
+            rms,
+            iterations,
+            sigma,
+        })
+    }
+}
