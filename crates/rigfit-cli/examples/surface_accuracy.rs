@@ -21,15 +21,57 @@ fn data(rel: &str) -> std::path::PathBuf {
 }
 
 fn main() {
-    let options = SurfaceOptions::default();
+    let mut options = SurfaceOptions::default();
+    let env = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<f64>().ok());
+    if let Some(x) = env("RIGIDITY") { options.rigidity = x; }
+    if let Some(x) = env("RADIUS") { options.patches.radius = x; }
+    if let Some(x) = env("BLEND") { options.patches.blend_width = x; }
+    if let Some(x) = env("SIGMA0") { options.initial_sigma = x; }
+    if let Some(x) = env("MINSIGMA") { options.min_sigma = x; }
+    if let Some(x) = env("ITERS") { options.max_iterations = x as usize; }
+    if let Some(x) = env("CUTOFF") { options.data.cutoff_sigmas = x; }
+    if let Some(x) = env("CANDIDATES") { options.data.max_candidates = x as usize; }
+    if let Some(x) = env("ANGLE") { options.data.normal_angle = x; }
+    if let Some(x) = env("OUTLIERS") { options.data.outlier_ratio = x; }
+    if let Some(x) = env("DAMPING") { options.damping = x; }
+    if let Some(x) = env("ANNEAL") { options.anneal = x; }
+    if let Some(x) = env("TANGENTIAL") { options.tangential = x; }
+    if let Some(x) = env("EXTRAP") { options.extrapolate = x > 0.0; }
+    let only = std::env::var("ONLY").unwrap_or_default();
     println!("| asset (clip) | vertices | patches | mean error (% diag) | p95 (% diag) | hole-frame limb mean (% diag) | ms/frame | EM iterations/frame |");
     println!("|---|---|---|---|---|---|---|---|");
     for (file, clip) in [("assimp/BCN_Epileptic.glb", "jump"), ("assimp/Testwuson.glb", "run")] {
+        if !file.contains(only.as_str()) { continue; }
         let rig = read_rig(&data(file), &RigOptions::default()).expect("asset").rig;
         let anim = find_animation(&rig, clip);
+        if std::env::var("VERBOSE").is_ok() {
+            for a in &rig.animations { eprintln!("clip {} {:.3}..{:.3} s, {} keys", a.name, a.start(), a.end(), a.frame_count()); }
+        }
         let mut rng = StdRng::seed_from_u64(5);
-        let seq = make_sequence(&rig, anim, &SequenceOptions::default(), &mut rng);
+        let mut seq_options = SequenceOptions::default();
+        if let Some(x) = env("GEN_NOISE") { seq_options.noise = x; }
+        if let Some(x) = env("GEN_OUTLIERS") { seq_options.outlier_ratio = x; }
+        if let Some(x) = env("GEN_POINTS") { seq_options.points = x as usize; }
+        if let Some(x) = env("GEN_FRAMES") { seq_options.frames = x as usize; }
+        if let Some(x) = env("GEN_DT") { seq_options.frame_time = Some(x); }
+        if env("GEN_NOHOLE").is_some() { seq_options.hole_frames = 0..0; }
+        let seq = make_sequence(&rig, anim, &seq_options, &mut rng);
+        if std::env::var("VERBOSE").is_ok() {
+            for f in 1..seq.truth.len() {
+                let m: f64 = seq.truth[f].iter().zip(&seq.truth[f - 1]).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+                eprint!("{:.1} ", m / seq.diagonal * 100.0);
+            }
+            eprintln!(" <- max motion per frame (% diag)");
+        }
         let mut tracker = SurfaceTracker::new(&seq.reference, &options).expect("tracker");
+        if std::env::var("VERBOSE").is_ok() {
+            let m = &tracker.model;
+            let nc = m.component.iter().max().map_or(0, |c| c + 1) as usize;
+            let mut verts = vec![0; nc];
+            let mut patches = vec![0; nc];
+            for (k, &c) in m.component.iter().enumerate() { patches[c as usize] += 1; verts[c as usize] += m.members[k].len(); }
+            eprintln!("components (patches, vertices): {:?}", patches.iter().zip(&verts).collect::<Vec<_>>());
+        }
         let mut fitted = Vec::new();
         let mut seconds = 0.0;
         let mut iterations = 0;
@@ -44,11 +86,21 @@ fn main() {
                 let (m, p) = mean_and_p95(&vertex_errors(&[fit.positions.clone()], &seq.truth[f..f + 1], seq.diagonal));
                 eprintln!("{file} frame {f}: mean {:.3}% p95 {:.3}% it {} sigma {:.4} inliers {}", m * 100.0, p * 100.0, fit.iterations, fit.sigma / seq.diagonal, fit.inliers);
             }
+            if std::env::var("WORST").is_ok() {
+                let f = fitted.len();
+                let mut idx: Vec<usize> = (0..fit.positions.len()).collect();
+                idx.sort_by(|&a, &b| (fit.positions[b] - seq.truth[f][b]).norm().total_cmp(&(fit.positions[a] - seq.truth[f][a]).norm()));
+                let b = rigfit_core::Aabb::from_points(&seq.truth[f]).expect("b");
+                for &v in idx.iter().take(3) {
+                    let t = seq.truth[f][v];
+                    eprintln!("  worst v{v}: err {:.3} truth rel ({:.2},{:.2},{:.2}) fitted {:?}", (fit.positions[v] - t).norm() / seq.diagonal, (t.x - b.min.x) / seq.diagonal, (t.y - b.min.y) / seq.diagonal, (t.z - b.min.z) / seq.diagonal, ((fit.positions[v] - t) / seq.diagonal).map(|x| (x * 1000.0).round() / 1000.0));
+                }
+            }
             fitted.push(fit.positions);
         }
         let errors = vertex_errors(&fitted, &seq.truth, seq.diagonal);
         let (mean, p95) = mean_and_p95(&errors);
-        let hole: Vec<f64> = (10..16)
+        let hole: Vec<f64> = (10..13.min(seq.frames.len()))
             .flat_map(|f| seq.hole_vertices.iter().map(move |&v| (f, v)))
             .map(|(f, v)| (fitted[f][v] - seq.truth[f][v]).norm() / seq.diagonal)
             .collect();

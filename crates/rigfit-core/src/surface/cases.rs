@@ -25,7 +25,10 @@ pub struct SequenceOptions {
     pub outlier_ratio: f64,
     /// Frames in which a limb region is missing from the scan.
     pub hole_frames: std::ops::Range<usize>,
-    /// Seconds between frames; `None` spreads the frames over the whole clip.
+    /// Fraction of the vertices in the missing region (the limb whose share is closest).
+    pub hole_size: f64,
+    /// Seconds between frames; `None` takes the clip's own key spacing (its frame rate),
+    /// `frames` of them from the middle of the clip.
     pub frame_time: Option<f64>,
 }
 
@@ -36,7 +39,8 @@ impl Default for SequenceOptions {
             points: 10_000,
             noise: 0.01,
             outlier_ratio: 0.15,
-            hole_frames: 10..16,
+            hole_frames: 10..13,
+            hole_size: 0.04,
             frame_time: None,
         }
     }
@@ -82,8 +86,8 @@ pub fn find_animation(rig: &Rig, name: &str) -> usize {
 }
 
 /// The vertices of a limb: those whose dominant joint lies under the joint whose subtree
-/// holds closest to 6% of the vertices (a forearm, a lower leg).
-fn limb_vertices(rig: &Rig) -> Vec<usize> {
+/// holds the share of the vertices closest to `share` (a hand, a lower leg).
+fn limb_vertices(rig: &Rig, share: f64) -> Vec<usize> {
     let dominant: Vec<usize> = rig.meshes.iter().flat_map(|m| m.dominant_joint()).collect();
     let total = dominant.len().max(1) as f64;
     let skeleton = &rig.skeleton;
@@ -93,7 +97,7 @@ fn limb_vertices(rig: &Rig) -> Vec<usize> {
                 .iter()
                 .filter(|&&d| d < skeleton.len() && skeleton.is_ancestor_or_self(j, d))
                 .count();
-            (j, (count as f64 / total - 0.06).abs(), count)
+            (j, (count as f64 / total - share).abs(), count)
         })
         .filter(|&(_, _, c)| c > 0)
         .min_by(|a, b| a.1.total_cmp(&b.1));
@@ -154,10 +158,16 @@ pub fn make_sequence(
     let frames = options.frames.max(1);
     let poses: Vec<Pose> = match rig.animations.get(animation) {
         Some(anim) => {
-            let (start, end) = (anim.start(), anim.end());
-            let step = options
-                .frame_time
-                .unwrap_or((end - start) / (frames.max(2) - 1) as f64);
+            let (mut start, end) = (anim.start(), anim.end());
+            let step = match options.frame_time {
+                Some(dt) => dt,
+                None => {
+                    let dt = anim.duration() / (anim.frame_count().max(2) - 1) as f64;
+                    let span = dt * (frames - 1) as f64;
+                    start += ((end - start - span) / 2.0).max(0.0);
+                    dt
+                }
+            };
             (0..frames)
                 .map(|f| anim.sample(&rig.pose, (start + step * f as f64).min(end)))
                 .collect()
@@ -170,7 +180,7 @@ pub fn make_sequence(
         max: Point3::new(1.0, 1.0, 1.0),
     });
     let diagonal = bounds.diagonal().max(1e-12);
-    let hole_vertices = limb_vertices(rig);
+    let hole_vertices = limb_vertices(rig, options.hole_size);
     let mut in_hole = vec![false; reference.vertices.len()];
     for &v in &hole_vertices {
         in_hole[v] = true;

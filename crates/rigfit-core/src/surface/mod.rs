@@ -61,6 +61,16 @@ pub struct SurfaceOptions {
     pub tolerance: f64,
     /// Levenberg-Marquardt damping of the Gauss-Newton step.
     pub damping: f64,
+    /// Weight of the data residual along the surface (1: the paper's point-to-point; see
+    /// [`StepWeights::tangential`]).
+    pub tangential: f64,
+    /// Start each frame from the previous one's motion continued (constant velocity of every
+    /// patch) rather than from the previous pose alone.
+    pub extrapolate: bool,
+    /// `sigma` falls at most by this factor per iteration (annealing from `initial_sigma`),
+    /// so that parts that moved far are still seen before the kernel narrows; 0 lets the
+    /// M-step set it alone, as in the paper.
+    pub anneal: f64,
 }
 
 impl Default for SurfaceOptions {
@@ -68,12 +78,15 @@ impl Default for SurfaceOptions {
         Self {
             patches: PatchOptions::default(),
             data: DataTermOptions::default(),
-            rigidity: 1.0,
+            rigidity: 10.0,
             initial_sigma: 0.04,
             min_sigma: 0.002,
             max_iterations: 12,
             tolerance: 1e-4,
             damping: 1e-3,
+            tangential: 0.3,
+            extrapolate: false,
+            anneal: 0.8,
         }
     }
 }
@@ -162,6 +175,8 @@ pub struct SurfaceTracker {
     pub pose: PatchPose,
     system: PatchSystem,
     pub options: SurfaceOptions,
+    /// The parameters of the frame before the last, for extrapolation.
+    previous: Option<PatchPose>,
 }
 
 impl SurfaceTracker {
@@ -174,6 +189,7 @@ impl SurfaceTracker {
             model,
             system,
             options: options.clone(),
+            previous: None,
         })
     }
 
@@ -185,15 +201,28 @@ impl SurfaceTracker {
     /// Fits the next frame, starting from the current parameters (the previous frame's).
     pub fn track(&mut self, data: &Observations) -> Result<FrameFit, SurfaceError> {
         data.check()?;
+        let last = self.pose.clone();
+        if self.options.extrapolate
+            && let Some(previous) = &self.previous
+        {
+            // Constant velocity: apply the last frame's motion of each patch once more.
+            for k in 0..self.model.patch_count() {
+                let turn = last.rotation[k] * previous.rotation[k].transpose();
+                self.pose.rotation[k] = turn * last.rotation[k];
+                self.pose.centre[k] = last.centre[k] + (last.centre[k] - previous.centre[k]);
+            }
+        }
         let diagonal = self.model.diagonal;
         let min_sigma = self.options.min_sigma * diagonal;
         let mut sigma = (self.options.initial_sigma * diagonal).max(min_sigma);
         let radius = self.options.patches.radius * diagonal;
         let mut positions = self.model.positions(&self.pose);
+        let mut normals = self.model.normals(&self.pose);
         let mut targets = VertexTargets::default();
         let mut iterations = 0;
         for _ in 0..self.options.max_iterations {
             iterations += 1;
+            let t0 = std::time::Instant::now();
             targets = e_step(
                 &self.model,
                 &self.pose,
@@ -202,6 +231,7 @@ impl SurfaceTracker {
                 sigma,
                 &self.options.data,
             );
+            let t1 = std::time::Instant::now();
             let total = targets.total_weight();
             if total <= 1e-9 {
                 break;
@@ -211,19 +241,25 @@ impl SurfaceTracker {
                 data: 1.0 / (sigma * sigma),
                 rigidity: self.options.rigidity / (radius * radius),
                 damping: self.options.damping,
+                tangential: self.options.tangential,
             };
             gauss_newton_step(
                 &self.model,
                 &self.system,
                 &mut self.pose,
                 &positions,
+                &normals,
                 &targets,
                 &weights,
             )?;
             let moved_to = self.model.positions(&self.pose);
+            if std::env::var("RIGFIT_PROFILE").is_ok() {
+                eprintln!("estep {:.2} ms, mstep {:.2} ms", (t1 - t0).as_secs_f64() * 1e3, t1.elapsed().as_secs_f64() * 1e3);
+            }
             // The M-step for sigma: the weighted mean squared residual per coordinate.
             sigma = (targets.residual(&moved_to) / (3.0 * total))
                 .sqrt()
+                .max(sigma * self.options.anneal)
                 .max(min_sigma);
             let moved = moved_to
                 .iter()
@@ -232,10 +268,12 @@ impl SurfaceTracker {
                 .fold(0.0, f64::max)
                 .sqrt();
             positions = moved_to;
+            normals = self.model.normals(&self.pose);
             if moved < self.options.tolerance * diagonal {
                 break;
             }
         }
+        self.previous = Some(last);
         let total = targets.total_weight();
         let rms = if total > 0.0 {
             (targets.weighted_residual / total).sqrt()

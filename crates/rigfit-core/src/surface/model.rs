@@ -145,16 +145,24 @@ impl PatchModel {
                 }
             }
         }
-        for n in &mut neighbours {
-            n.sort_unstable();
-            n.dedup();
-        }
         let components = connected_components(&graph);
         let component: Vec<u32> = partition
             .seeds
             .iter()
             .map(|&s| components[s as usize])
             .collect();
+        attach_small_components(
+            &rest,
+            &vertex_patch,
+            &members,
+            &component,
+            radius,
+            &mut neighbours,
+        );
+        for n in &mut neighbours {
+            n.sort_unstable();
+            n.dedup();
+        }
         // Vertex areas (a third of each triangle) and normals.
         let mut vertex_area = vec![0.0; rest.len()];
         for t in &triangles {
@@ -339,6 +347,48 @@ impl PatchModel {
                     .sum::<f64>()
             })
             .sum()
+    }
+}
+
+/// Parts too small to carry their own motion (a claw, a tooth, an eye: a component of one
+/// patch) that lie within a patch radius of another component become neighbours of the
+/// nearest patch there, so they follow it (rigidity, eq. 4) instead of drifting on the few
+/// points they receive. Separate objects farther apart than a patch radius stay separate.
+fn attach_small_components(
+    rest: &[Point3],
+    vertex_patch: &[u32],
+    members: &[Vec<u32>],
+    component: &[u32],
+    radius: f64,
+    neighbours: &mut [Vec<u32>],
+) {
+    let patch_count = members.len();
+    let mut patches_of = std::collections::HashMap::<u32, Vec<usize>>::new();
+    for (k, &c) in component.iter().enumerate() {
+        patches_of.entry(c).or_default().push(k);
+    }
+    if patches_of.len() < 2 {
+        return;
+    }
+    let coords: Vec<[f64; 3]> = rest.iter().map(|p| [p.x, p.y, p.z]).collect();
+    let tree = super::estep::PointTree::new(&coords);
+    for k in 0..patch_count {
+        if patches_of[&component[k]].len() != 1 {
+            continue;
+        }
+        let mut best: Option<(f64, usize)> = None;
+        for &v in &members[k] {
+            for (w, d2) in tree.nearest_within(&rest[v as usize], 64, radius) {
+                let l = vertex_patch[w] as usize;
+                if component[l] != component[k] && best.is_none_or(|(b, _)| d2 < b) {
+                    best = Some((d2, l));
+                }
+            }
+        }
+        if let Some((_, l)) = best {
+            neighbours[k].push(l as u32);
+            neighbours[l].push(k as u32);
+        }
     }
 }
 

@@ -191,6 +191,25 @@ fn add_jtj(block: &mut Block, w: f64, qa: &Vector3, qb: &Vector3) {
     }
 }
 
+/// Adds `J_a^T P J_b` for `J = [-[q]x, I]` and a symmetric metric `P` (already weighted).
+#[inline]
+fn add_jtpj(block: &mut Block, p: &Matrix3, qa: &Vector3, qb: &Vector3) {
+    let sa = skew(qa);
+    let sb = skew(qb);
+    // J_a^T P J_b = [[-[qa]x P [qb]x, [qa]x P], [-P [qb]x, P]].
+    let sap = sa * p;
+    let tl = -(sap * sb);
+    let bl = -(p * sb);
+    for r in 0..3 {
+        for c in 0..3 {
+            block[6 * r + c] += tl[(r, c)];
+            block[6 * r + c + 3] += sap[(r, c)];
+            block[6 * (r + 3) + c] += bl[(r, c)];
+            block[6 * (r + 3) + c + 3] += p[(r, c)];
+        }
+    }
+}
+
 /// Adds `w * J^T r` for `J = [-[q]x, I]`.
 #[inline]
 fn add_jtr(g: &mut [f64], w: f64, q: &Vector3, r: &Vector3) {
@@ -210,15 +229,21 @@ pub struct StepWeights {
     pub rigidity: f64,
     /// Levenberg-Marquardt damping, relative to each diagonal entry.
     pub damping: f64,
+    /// Weight of the data residual's component along the surface, against 1 across it:
+    /// 1 is the paper's point-to-point distance; below 1 lets a vertex slide along the
+    /// surface toward the centroid of its points without the mesh being dragged by the way
+    /// points happen to fall around vertices.
+    pub tangential: f64,
 }
 
-/// One Gauss-Newton step on `data * sum_v W_v |x(v) - ybar_v|^2 + rigidity * E_r`, applied
-/// to `pose` in place.
+/// One Gauss-Newton step on `data * sum_v W_v |x(v) - ybar_v|_P^2 + rigidity * E_r`, applied
+/// to `pose` in place, where `P = n n^T + tangential (I - n n^T)` for the vertex normal `n`.
 pub fn gauss_newton_step(
     model: &PatchModel,
     system: &PatchSystem,
     pose: &mut PatchPose,
     positions: &[Point3],
+    normals: &[Vector3],
     targets: &VertexTargets,
     weights: &StepWeights,
 ) -> Result<(), SolveError> {
@@ -228,15 +253,20 @@ pub fn gauss_newton_step(
 
     // Data term, vertex by vertex: residual x(v) - ybar_v with weight W_v; the Jacobian of
     // x(v) is sum_k alpha_k(v) J_k(v) (eq. 2).
-    let data_terms: Vec<(usize, f64, Vector3)> = (0..model.vertex_count())
+    let data_terms: Vec<(usize, Matrix3, Vector3)> = (0..model.vertex_count())
         .filter(|&v| targets.weight[v] > 1e-12)
         .map(|v| {
             let w = targets.weight[v];
             let ybar = targets.weighted_sum[v] / w;
-            (v, w * weights.data, positions[v].coords - ybar)
+            let n = normals[v];
+            let across = n * n.transpose();
+            let metric = (across + (Matrix3::identity() - across) * weights.tangential)
+                * (w * weights.data);
+            (v, metric, positions[v].coords - ybar)
         })
         .collect();
-    for (v, w, r) in data_terms {
+    for (v, metric, r) in data_terms {
+        let pr = metric * r;
         let blend: Vec<(usize, f64, Vector3)> = model
             .blend(v)
             .map(|(k, a)| (k, a, model.offset(pose, k, v)))
@@ -244,12 +274,12 @@ pub fn gauss_newton_step(
         let pairs = &system.vertex_pairs[v];
         let m = blend.len();
         for (ia, &(ka, aa, qa)) in blend.iter().enumerate() {
-            add_jtr(&mut gradient[6 * ka..6 * ka + 6], w * aa, &qa, &r);
+            add_jtr(&mut gradient[6 * ka..6 * ka + 6], aa, &qa, &pr);
             for (ib, &(kb, ab, qb)) in blend.iter().enumerate() {
                 if ka <= kb {
-                    add_jtj(
+                    add_jtpj(
                         &mut blocks[pairs[ia * m + ib] as usize],
-                        w * aa * ab,
+                        &(metric * (aa * ab)),
                         &qa,
                         &qb,
                     );
@@ -308,7 +338,10 @@ pub fn gauss_newton_step(
         .map(|(k, i)| blocks[diagonal_block(k)][7 * i])
         .fold(0.0, f64::max)
         .max(1e-300);
-    let floor_translation = 1e-9 * max_translation;
+    // A weak prior to stay put, worth about `damping` of an average patch's data, so that a
+    // patch seen by a handful of points cannot swing far in one step.
+    let data_weight: f64 = targets.weight.iter().sum::<f64>() * weights.data;
+    let floor_translation = 1e-9 * max_translation + weights.damping * data_weight / n as f64;
     let floor_rotation = floor_translation * model.diagonal * model.diagonal;
     for k in 0..n {
         let block = &mut blocks[diagonal_block(k)];
