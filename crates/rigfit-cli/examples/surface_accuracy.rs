@@ -34,6 +34,8 @@ fn main() {
     if let Some(x) = env("ANGLE") { options.data.normal_angle = x; }
     if let Some(x) = env("OUTLIERS") { options.data.outlier_ratio = x; }
     if let Some(x) = env("DAMPING") { options.damping = x; }
+    if let Some(x) = env("COARSE") { options.coarse_points = x as usize; }
+    if let Some(x) = env("FINE") { options.fine_iterations = x as usize; }
     if let Some(x) = env("ANNEAL") { options.anneal = x; }
     if let Some(x) = env("TANGENTIAL") { options.tangential = x; }
     if let Some(x) = env("EXTRAP") { options.extrapolate = x > 0.0; }
@@ -71,6 +73,12 @@ fn main() {
             let mut patches = vec![0; nc];
             for (k, &c) in m.component.iter().enumerate() { patches[c as usize] += 1; verts[c as usize] += m.members[k].len(); }
             eprintln!("components (patches, vertices): {:?}", patches.iter().zip(&verts).collect::<Vec<_>>());
+        }
+        if let Ok(v) = std::env::var("WHICH") {
+            let m = &tracker.model;
+            let v: usize = v.parse().expect("v");
+            let k = m.vertex_patch[v] as usize;
+            eprintln!("v{v}: patch {k} comp {} members {} neighbours {:?} blend {:?}", m.component[k], m.members[k].len(), m.neighbours[k], m.blend(v).collect::<Vec<_>>());
         }
         let mut fitted = Vec::new();
         let mut seconds = 0.0;

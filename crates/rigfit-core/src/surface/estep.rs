@@ -136,7 +136,7 @@ impl Default for DataTermOptions {
             outlier_ratio: 0.15,
             normal_angle: 60.0,
             cutoff_sigmas: 3.0,
-            max_candidates: 32,
+            max_candidates: 12,
         }
     }
 }

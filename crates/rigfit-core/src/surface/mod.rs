@@ -71,6 +71,11 @@ pub struct SurfaceOptions {
     /// so that parts that moved far are still seen before the kernel narrows; 0 lets the
     /// M-step set it alone, as in the paper.
     pub anneal: f64,
+    /// Coarse-to-fine over the data: all iterations but the last `fine_iterations` see at
+    /// most this many points (an even subset); 0 uses every point throughout (the default:
+    /// on the real assets the subset cost accuracy for thin parts).
+    pub coarse_points: usize,
+    pub fine_iterations: usize,
 }
 
 impl Default for SurfaceOptions {
@@ -78,7 +83,7 @@ impl Default for SurfaceOptions {
         Self {
             patches: PatchOptions::default(),
             data: DataTermOptions::default(),
-            rigidity: 10.0,
+            rigidity: 4.0,
             initial_sigma: 0.04,
             min_sigma: 0.002,
             max_iterations: 12,
@@ -87,6 +92,8 @@ impl Default for SurfaceOptions {
             tangential: 0.3,
             extrapolate: false,
             anneal: 0.8,
+            coarse_points: 0,
+            fine_iterations: 4,
         }
     }
 }
@@ -220,8 +227,25 @@ impl SurfaceTracker {
         let mut normals = self.model.normals(&self.pose);
         let mut targets = VertexTargets::default();
         let mut iterations = 0;
-        for _ in 0..self.options.max_iterations {
+        let stride = match self.options.coarse_points {
+            0 => 1,
+            n => data.points.len().div_ceil(n),
+        };
+        let coarse = (stride > 1).then(|| Observations {
+            points: data.points.iter().step_by(stride).copied().collect(),
+            normals: data.normals.iter().step_by(stride).copied().collect(),
+            oriented: data.oriented,
+        });
+        let coarse_iterations = self
+            .options
+            .max_iterations
+            .saturating_sub(self.options.fine_iterations);
+        for iteration in 0..self.options.max_iterations {
             iterations += 1;
+            let data = match &coarse {
+                Some(c) if iteration < coarse_iterations => c,
+                _ => data,
+            };
             let t0 = std::time::Instant::now();
             targets = e_step(
                 &self.model,
@@ -269,7 +293,7 @@ impl SurfaceTracker {
                 .sqrt();
             positions = moved_to;
             normals = self.model.normals(&self.pose);
-            if moved < self.options.tolerance * diagonal {
+            if moved < self.options.tolerance * diagonal && iteration >= coarse_iterations {
                 break;
             }
         }

@@ -24,7 +24,7 @@ pub struct PatchOptions {
 impl Default for PatchOptions {
     fn default() -> Self {
         Self {
-            radius: 0.05,
+            radius: 0.06,
             blend_width: 0.8,
         }
     }
@@ -351,9 +351,9 @@ impl PatchModel {
 }
 
 /// Parts too small to carry their own motion (a claw, a tooth, an eye: a component of one
-/// patch) that lie within a patch radius of another component become neighbours of the
+/// patch) that lie within three patch radii of a larger component become neighbours of the
 /// nearest patch there, so they follow it (rigidity, eq. 4) instead of drifting on the few
-/// points they receive. Separate objects farther apart than a patch radius stay separate.
+/// points they receive. Separate objects farther apart stay separate.
 fn attach_small_components(
     rest: &[Point3],
     vertex_patch: &[u32],
@@ -378,9 +378,10 @@ fn attach_small_components(
         }
         let mut best: Option<(f64, usize)> = None;
         for &v in &members[k] {
-            for (w, d2) in tree.nearest_within(&rest[v as usize], 64, radius) {
+            for (w, d2) in tree.nearest_within(&rest[v as usize], 64, 3.0 * radius) {
                 let l = vertex_patch[w] as usize;
-                if component[l] != component[k] && best.is_none_or(|(b, _)| d2 < b) {
+                let large = patches_of[&component[l]].len() > 1;
+                if large && best.is_none_or(|(b, _)| d2 < b) {
                     best = Some((d2, l));
                 }
             }
