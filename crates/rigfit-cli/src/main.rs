@@ -25,6 +25,8 @@ enum Command {
     Info(commands::info::InfoArgs),
     /// Write the built-in procedural humanoid as a .glb (or .bvh).
     DemoRig(commands::demo_rig::DemoRigArgs),
+    /// Track a reference mesh through a sequence of point clouds or meshes.
+    Surface(commands::surface::SurfaceArgs),
 }
 
 fn main() -> ExitCode {
@@ -43,6 +45,7 @@ fn main() -> ExitCode {
         Command::Demo(args) => commands::demo::run(&args),
         Command::Info(args) => commands::info::run(&args),
         Command::DemoRig(args) => commands::demo_rig::run(&args),
+        Command::Surface(args) => commands::surface::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

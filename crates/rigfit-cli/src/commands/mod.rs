@@ -4,3 +4,4 @@ pub mod demo;
 pub mod demo_rig;
 pub mod info;
 pub mod pose;
+pub mod surface;
