@@ -36,6 +36,7 @@ fn main() {
     if let Some(x) = env("DAMPING") { options.damping = x; }
     if let Some(x) = env("COARSE") { options.coarse_points = x as usize; }
     if let Some(x) = env("FINE") { options.fine_iterations = x as usize; }
+    if let Some(x) = env("TOL") { options.tolerance = x; }
     if let Some(x) = env("ANNEAL") { options.anneal = x; }
     if let Some(x) = env("TANGENTIAL") { options.tangential = x; }
     if let Some(x) = env("EXTRAP") { options.extrapolate = x > 0.0; }

@@ -19,7 +19,7 @@ use crate::math::{Matrix3, Point3, Vector3, exp_rotation};
 type Block = [f64; 36];
 
 /// The block pattern of the normal equations and its reusable symbolic factorisation.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct PatchSystem {
     patch_count: usize,
     /// For each block column `l`, the block rows `k <= l` present (sorted).
@@ -265,26 +265,41 @@ pub fn gauss_newton_step(
             (v, metric, positions[v].coords - ybar)
         })
         .collect();
-    for (v, metric, r) in data_terms {
-        let pr = metric * r;
-        let blend: Vec<(usize, f64, Vector3)> = model
-            .blend(v)
-            .map(|(k, a)| (k, a, model.offset(pose, k, v)))
-            .collect();
-        let pairs = &system.vertex_pairs[v];
-        let m = blend.len();
-        for (ia, &(ka, aa, qa)) in blend.iter().enumerate() {
-            add_jtr(&mut gradient[6 * ka..6 * ka + 6], aa, &qa, &pr);
-            for (ib, &(kb, ab, qb)) in blend.iter().enumerate() {
-                if ka <= kb {
-                    add_jtpj(
-                        &mut blocks[pairs[ia * m + ib] as usize],
-                        &(metric * (aa * ab)),
-                        &qa,
-                        &qb,
-                    );
+    // Two halves in parallel, each into its own blocks, then summed.
+    let half = data_terms.len().div_ceil(2).max(1);
+    let partial: Vec<(Vec<Block>, Vec<f64>)> = data_terms
+        .par_chunks(half)
+        .map(|terms| {
+            let mut blocks = vec![[0.0; 36]; system.block_count()];
+            let mut gradient = vec![0.0; 6 * n];
+            let mut blend: Vec<(usize, f64, Vector3)> = Vec::with_capacity(16);
+            for &(v, metric, r) in terms {
+                let pr = metric * r;
+                blend.clear();
+                blend.extend(model.blend(v).map(|(k, a)| (k, a, model.offset(pose, k, v))));
+                let pairs = &system.vertex_pairs[v];
+                let m = blend.len();
+                for (ia, &(ka, aa, qa)) in blend.iter().enumerate() {
+                    add_jtr(&mut gradient[6 * ka..6 * ka + 6], aa, &qa, &pr);
+                    let pa = metric * aa;
+                    for (ib, &(kb, ab, qb)) in blend.iter().enumerate() {
+                        if ka <= kb {
+                            add_jtpj(&mut blocks[pairs[ia * m + ib] as usize], &(pa * ab), &qa, &qb);
+                        }
+                    }
                 }
             }
+            (blocks, gradient)
+        })
+        .collect();
+    for (b, g) in partial {
+        for (t, s) in blocks.iter_mut().zip(&b) {
+            for (x, y) in t.iter_mut().zip(s) {
+                *x += y;
+            }
+        }
+        for (x, y) in gradient.iter_mut().zip(&g) {
+            *x += y;
         }
     }
 
