@@ -248,7 +248,6 @@ impl SurfaceTracker {
                 Some(c) if iteration < coarse_iterations => c,
                 _ => data,
             };
-            let t0 = std::time::Instant::now();
             targets = e_step(
                 &self.model,
                 &self.pose,
@@ -257,7 +256,6 @@ impl SurfaceTracker {
                 sigma,
                 &self.options.data,
             );
-            let t1 = std::time::Instant::now();
             let total = targets.total_weight();
             if total <= 1e-9 {
                 break;
@@ -279,9 +277,6 @@ impl SurfaceTracker {
                 &weights,
             )?;
             let moved_to = self.model.positions(&self.pose);
-            if std::env::var("RIGFIT_PROFILE").is_ok() {
-                eprintln!("estep {:.2} ms, mstep {:.2} ms", (t1 - t0).as_secs_f64() * 1e3, t1.elapsed().as_secs_f64() * 1e3);
-            }
             // The M-step for sigma: the weighted mean squared residual per coordinate.
             sigma = (targets.residual(&moved_to) / (3.0 * total))
                 .sqrt()
@@ -315,5 +310,92 @@ impl SurfaceTracker {
             iterations,
             sigma,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cases::{bend, scan, torus};
+    use super::*;
+    use rand::SeedableRng;
+
+    fn mean_error(a: &[Point3], b: &[Point3]) -> f64 {
+        a.iter().zip(b).map(|(p, q)| (p - q).norm()).sum::<f64>() / a.len() as f64
+    }
+
+    #[test]
+    fn tracks_a_bending_torus_through_noise_and_clutter() {
+        let reference = torus(60, 30);
+        let diagonal = reference.bounds().expect("bounds").diagonal();
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        let mut tracker =
+            SurfaceTracker::new(&reference, &SurfaceOptions::default()).expect("tracker");
+        for f in 0..4 {
+            let truth = bend(&reference, 0.1 * f as f64);
+            let cloud = scan(&truth, &reference.triangles, 6000, 0.005 * diagonal, 0.15, &mut rng);
+            let fit = tracker
+                .track(&Observations::from_mesh(&cloud).expect("frame"))
+                .expect("track");
+            let error = mean_error(&fit.positions, &truth) / diagonal;
+            assert!(error < 0.01, "frame {f}: {error}");
+            // About 5100 surface points; most of the 900 clutter points are outliers.
+            assert!((4800..=5600).contains(&fit.inliers), "inliers {}", fit.inliers);
+        }
+    }
+
+    #[test]
+    fn bad_frames_are_errors() {
+        let reference = torus(20, 10);
+        let mut tracker =
+            SurfaceTracker::new(&reference, &SurfaceOptions::default()).expect("tracker");
+        assert_eq!(
+            tracker.track(&Observations::default()).err(),
+            Some(SurfaceError::EmptyFrame)
+        );
+        let nan = TriMesh {
+            vertices: vec![Point3::new(0.0, f64::NAN, 0.0)],
+            ..Default::default()
+        };
+        assert!(matches!(
+            Observations::from_mesh(&nan),
+            Err(SurfaceError::NonFinite { index: 0, .. })
+        ));
+        let mismatched = Observations {
+            points: vec![Point3::origin(); 3],
+            normals: vec![Vector3::x()],
+            oriented: true,
+        };
+        assert!(matches!(
+            tracker.track(&mismatched),
+            Err(SurfaceError::NormalCount { .. })
+        ));
+        // A cloud without normals gets estimated, unsigned ones.
+        let cloud = TriMesh {
+            vertices: reference.vertices.clone(),
+            ..Default::default()
+        };
+        let obs = Observations::from_mesh(&cloud).expect("cloud");
+        assert!(!obs.oriented);
+        assert!(obs.normals.iter().all(|n| (n.norm() - 1.0).abs() < 1e-9));
+    }
+
+    #[test]
+    fn points_far_from_the_mesh_are_outliers() {
+        let reference = torus(30, 15);
+        let model = PatchModel::new(&reference, &PatchOptions::default()).expect("model");
+        let pose = model.rest_pose();
+        let positions = model.positions(&pose);
+        let mut points = reference.vertices.clone();
+        let mut normals = reference.normals.clone().expect("normals");
+        points.push(Point3::new(0.0, 5.0, 0.0));
+        normals.push(Vector3::y());
+        let data = Observations {
+            points,
+            normals,
+            oriented: true,
+        };
+        let targets = e_step(&model, &pose, &positions, &data, 0.02, &DataTermOptions::default());
+        assert_eq!(targets.inliers, reference.vertices.len());
+        assert!(targets.total_weight() < reference.vertices.len() as f64 + 1e-9);
     }
 }
