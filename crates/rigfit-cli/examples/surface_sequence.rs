@@ -57,7 +57,15 @@ fn main() -> anyhow::Result<()> {
         "vertices": seq.reference.vertices.len(),
         "diagonal": seq.diagonal,
     });
-    std::fs::write(out.join("sequence.json"), serde_json::to_string_pretty(&meta)? + "\n")?;
-    println!("wrote {} frames of {} to {}", seq.frames.len(), asset.display(), out.display());
+    std::fs::write(
+        out.join("sequence.json"),
+        serde_json::to_string_pretty(&meta)? + "\n",
+    )?;
+    println!(
+        "wrote {} frames of {} to {}",
+        seq.frames.len(),
+        asset.display(),
+        out.display()
+    );
     Ok(())
 }

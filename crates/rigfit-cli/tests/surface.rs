@@ -6,8 +6,8 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use common::*;
-use rigfit_core::math::{Point3, Quat, Vector3};
 use rigfit_core::TriMesh;
+use rigfit_core::math::{Point3, Quat, Vector3};
 use rigfit_formats::ply::{read_ply, write_ply};
 use serde_json::Value;
 
@@ -41,7 +41,12 @@ fn sphere(centre: Point3, radius: f64, rings: usize, segments: usize) -> TriMesh
     }
     for r in 1..rings - 1 {
         for s in 0..seg {
-            let (a, b, c, d) = (ring(r, s), ring(r, s + 1), ring(r + 1, s), ring(r + 1, s + 1));
+            let (a, b, c, d) = (
+                ring(r, s),
+                ring(r, s + 1),
+                ring(r + 1, s),
+                ring(r + 1, s + 1),
+            );
             triangles.push([a, b, d]);
             triangles.push([a, d, c]);
         }
@@ -74,7 +79,8 @@ fn two_objects() -> TriMesh {
     }
     let offset = a.vertices.len() as u32;
     a.vertices.extend(b.vertices);
-    a.triangles.extend(b.triangles.iter().map(|t| t.map(|i| i + offset)));
+    a.triangles
+        .extend(b.triangles.iter().map(|t| t.map(|i| i + offset)));
     a.normals = Some(a.vertex_normals_from_faces());
     a
 }
@@ -101,12 +107,8 @@ fn truth_at(reference: &TriMesh, split: usize, f: usize) -> Vec<Point3> {
 fn scan(reference: &TriMesh, moved: &[Point3], seed: u64) -> TriMesh {
     use rand::{Rng, SeedableRng};
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-    let (mut points, _) = rigfit_core::surface::cases::sample_surface(
-        moved,
-        &reference.triangles,
-        3000,
-        &mut rng,
-    );
+    let (mut points, _) =
+        rigfit_core::surface::cases::sample_surface(moved, &reference.triangles, 3000, &mut rng);
     for _ in 0..500 {
         points.push(Point3::new(
             rng.random_range(-1.5..3.0),
@@ -210,7 +212,10 @@ fn bad_input_gives_one_line_and_no_output() {
         std::fs::write(&p, text).expect("write");
         p
     };
-    let cloud = write("cloud.ply", ascii_ply(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[]));
+    let cloud = write(
+        "cloud.ply",
+        ascii_ply(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[]),
+    );
     let nan = write(
         "nan.ply",
         "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\nnan 1 0\n".into(),
@@ -219,7 +224,10 @@ fn bad_input_gives_one_line_and_no_output() {
     let text = write("frame.txt", "hello".into());
     let flat = write(
         "point.ply",
-        ascii_ply(&[[1.0, 1.0, 1.0], [1.0, 1.0, 1.0], [1.0, 1.0, 1.0]], &[[0, 1, 2]]),
+        ascii_ply(
+            &[[1.0, 1.0, 1.0], [1.0, 1.0, 1.0], [1.0, 1.0, 1.0]],
+            &[[0, 1, 2]],
+        ),
     );
     let frame = s(&frames[0]);
     let cases: Vec<(Vec<&str>, &Path)> = vec![
@@ -234,7 +242,10 @@ fn bad_input_gives_one_line_and_no_output() {
         // A reference with no extent.
         (vec![s(&flat), frame], &flat),
         // A missing file.
-        (vec![s(&reference), "does-not-exist.ply"], Path::new("does-not-exist.ply")),
+        (
+            vec![s(&reference), "does-not-exist.ply"],
+            Path::new("does-not-exist.ply"),
+        ),
     ];
     for (inputs, culprit) in cases {
         let mut args = vec!["surface"];
@@ -271,5 +282,10 @@ fn non_manifold_and_disconnected_references_are_tracked() {
     assert!(o.status.success(), "{}", stderr(&o));
     let fitted = read_ply(&out.join("frame_00000.ply")).expect("output");
     assert_eq!(fitted.vertices.len(), vertices.len());
-    assert!(fitted.vertices.iter().all(|p| p.iter().all(|x| x.is_finite())));
+    assert!(
+        fitted
+            .vertices
+            .iter()
+            .all(|p| p.iter().all(|x| x.is_finite()))
+    );
 }

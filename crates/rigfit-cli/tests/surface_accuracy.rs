@@ -7,12 +7,12 @@ mod common;
 
 use common::*;
 use rand::SeedableRng;
+use rigfit_core::TriMesh;
 use rigfit_core::surface::cases::{
-    SequenceOptions, find_animation, make_sequence, mean_and_p95, sample_surface,
-    skinned_surface, vertex_errors,
+    SequenceOptions, find_animation, make_sequence, mean_and_p95, sample_surface, skinned_surface,
+    vertex_errors,
 };
 use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker};
-use rigfit_core::TriMesh;
 use rigfit_formats::ply::{read_ply, write_ply};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 
@@ -36,7 +36,11 @@ fn track_asset(file: &str, clip: &str) -> (f64, f64) {
         })
         .collect();
     let (mean, p95) = mean_and_p95(&vertex_errors(&fitted, &seq.truth, seq.diagonal));
-    eprintln!("{file} ({clip}): mean {:.3}%, p95 {:.3}%", mean * 100.0, p95 * 100.0);
+    eprintln!(
+        "{file} ({clip}): mean {:.3}%, p95 {:.3}%",
+        mean * 100.0,
+        p95 * 100.0
+    );
     (mean, p95)
 }
 

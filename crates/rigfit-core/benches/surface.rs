@@ -16,7 +16,14 @@ fn surface(c: &mut Criterion) {
     let frames: Vec<Observations> = (0..3)
         .map(|f| {
             let moved = bend(&reference, 0.15 * f as f64);
-            let cloud = scan(&moved, &reference.triangles, 10_000, 0.01 * diagonal, 0.15, &mut rng);
+            let cloud = scan(
+                &moved,
+                &reference.triangles,
+                10_000,
+                0.01 * diagonal,
+                0.15,
+                &mut rng,
+            );
             Observations::from_mesh(&cloud).expect("frame")
         })
         .collect();

@@ -136,9 +136,7 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
         let frame = read_mesh(path)?;
         let observations = Observations::from_mesh(&frame).map_err(|e| named(path, e))?;
         let t0 = Instant::now();
-        let fit = tracker
-            .track(&observations)
-            .map_err(|e| named(path, e))?;
+        let fit = tracker.track(&observations).map_err(|e| named(path, e))?;
         let seconds = t0.elapsed().as_secs_f64();
         total_seconds += seconds;
         progress.show(i + 1, total_seconds / (i + 1) as f64 * 1000.0);

@@ -103,7 +103,9 @@ fn limb_vertices(rig: &Rig, share: f64) -> Vec<usize> {
         .min_by(|a, b| a.1.total_cmp(&b.1));
     match best {
         Some((j, _, _)) => (0..dominant.len())
-            .filter(|&v| dominant[v] < skeleton.len() && skeleton.is_ancestor_or_self(j, dominant[v]))
+            .filter(|&v| {
+                dominant[v] < skeleton.len() && skeleton.is_ancestor_or_self(j, dominant[v])
+            })
             .collect(),
         None => Vec::new(),
     }
@@ -130,7 +132,9 @@ pub fn sample_surface(
     }
     for _ in 0..count {
         let r = rng.random_range(0.0..total);
-        let t = cumulative.partition_point(|&c| c < r).min(triangles.len() - 1);
+        let t = cumulative
+            .partition_point(|&c| c < r)
+            .min(triangles.len() - 1);
         let [a, b, c] = triangles[t].map(|i| vertices[i as usize]);
         let (mut u, mut v) = (rng.random::<f64>(), rng.random::<f64>());
         if u + v > 1.0 {
@@ -192,7 +196,8 @@ pub fn make_sequence(
         .filter(|t| !t.iter().any(|&i| in_hole[i as usize]))
         .collect();
     let noise = Normal::new(0.0, (options.noise * diagonal).max(1e-300)).expect("valid deviation");
-    let outliers = ((options.points as f64) * options.outlier_ratio.clamp(0.0, 1.0)).round() as usize;
+    let outliers =
+        ((options.points as f64) * options.outlier_ratio.clamp(0.0, 1.0)).round() as usize;
     let surface_points = options.points.saturating_sub(outliers);
     let floor_y = bounds.min.y - 0.01 * diagonal;
     let mut truth = Vec::with_capacity(frames);
@@ -283,7 +288,12 @@ pub fn torus(rings: usize, segments: usize) -> TriMesh {
     let mut triangles = Vec::with_capacity(2 * rings * segments);
     for i in 0..rings {
         for j in 0..segments {
-            let (a, b, c, d) = (index(i, j), index(i + 1, j), index(i, j + 1), index(i + 1, j + 1));
+            let (a, b, c, d) = (
+                index(i, j),
+                index(i + 1, j),
+                index(i, j + 1),
+                index(i + 1, j + 1),
+            );
             triangles.push([a, c, b]);
             triangles.push([b, c, d]);
         }
@@ -305,7 +315,8 @@ pub fn bend(mesh: &TriMesh, amount: f64) -> Vec<Point3> {
         .map(|p| {
             let angle = amount * (p.x + 1.5) * 0.3;
             let (s, c) = angle.sin_cos();
-            Point3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z) + Vector3::new(0.0, amount * 0.2, 0.0)
+            Point3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z)
+                + Vector3::new(0.0, amount * 0.2, 0.0)
         })
         .collect()
 }

@@ -80,6 +80,20 @@ pub struct SurfaceOptions {
     pub fine_iterations: usize,
 }
 
+impl SurfaceOptions {
+    /// The method as published: point-to-point data term, `sigma` set by the M-step alone,
+    /// every connected component on its own.
+    pub fn paper() -> Self {
+        let mut options = Self {
+            tangential: 1.0,
+            anneal: 0.0,
+            ..Self::default()
+        };
+        options.patches.attach_small_parts = false;
+        options
+    }
+}
+
 impl Default for SurfaceOptions {
     fn default() -> Self {
         Self {
@@ -170,7 +184,10 @@ impl Observations {
         }
         for (i, (p, n)) in self.points.iter().zip(&self.normals).enumerate() {
             if p.iter().chain(n.iter()).any(|x| !x.is_finite()) {
-                return Err(SurfaceError::NonFinite { what: "point", index: i });
+                return Err(SurfaceError::NonFinite {
+                    what: "point",
+                    index: i,
+                });
             }
         }
         Ok(())
@@ -332,14 +349,25 @@ mod tests {
             SurfaceTracker::new(&reference, &SurfaceOptions::default()).expect("tracker");
         for f in 0..4 {
             let truth = bend(&reference, 0.1 * f as f64);
-            let cloud = scan(&truth, &reference.triangles, 6000, 0.005 * diagonal, 0.15, &mut rng);
+            let cloud = scan(
+                &truth,
+                &reference.triangles,
+                6000,
+                0.005 * diagonal,
+                0.15,
+                &mut rng,
+            );
             let fit = tracker
                 .track(&Observations::from_mesh(&cloud).expect("frame"))
                 .expect("track");
             let error = mean_error(&fit.positions, &truth) / diagonal;
             assert!(error < 0.01, "frame {f}: {error}");
             // About 5100 surface points; most of the 900 clutter points are outliers.
-            assert!((4800..=5600).contains(&fit.inliers), "inliers {}", fit.inliers);
+            assert!(
+                (4800..=5600).contains(&fit.inliers),
+                "inliers {}",
+                fit.inliers
+            );
         }
     }
 
@@ -394,7 +422,14 @@ mod tests {
             normals,
             oriented: true,
         };
-        let targets = e_step(&model, &pose, &positions, &data, 0.02, &DataTermOptions::default());
+        let targets = e_step(
+            &model,
+            &pose,
+            &positions,
+            &data,
+            0.02,
+            &DataTermOptions::default(),
+        );
         assert_eq!(targets.inliers, reference.vertices.len());
         assert!(targets.total_weight() < reference.vertices.len() as f64 + 1e-9);
     }

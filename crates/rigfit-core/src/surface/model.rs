@@ -19,6 +19,9 @@ pub struct PatchOptions {
     pub radius: f64,
     /// Width of the blending Gaussians, as a fraction of the patch radius.
     pub blend_width: f64,
+    /// One-patch parts near a larger object follow its nearest patch (rigfit's addition;
+    /// the paper leaves every component on its own).
+    pub attach_small_parts: bool,
 }
 
 impl Default for PatchOptions {
@@ -26,6 +29,7 @@ impl Default for PatchOptions {
         Self {
             radius: 0.06,
             blend_width: 0.8,
+            attach_small_parts: true,
         }
     }
 }
@@ -151,14 +155,16 @@ impl PatchModel {
             .iter()
             .map(|&s| components[s as usize])
             .collect();
-        attach_small_components(
-            &rest,
-            &vertex_patch,
-            &members,
-            &component,
-            radius,
-            &mut neighbours,
-        );
+        if options.attach_small_parts {
+            attach_small_components(
+                &rest,
+                &vertex_patch,
+                &members,
+                &component,
+                radius,
+                &mut neighbours,
+            );
+        }
         for n in &mut neighbours {
             n.sort_unstable();
             n.dedup();

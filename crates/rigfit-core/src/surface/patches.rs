@@ -151,7 +151,11 @@ pub fn farthest_point_partition(graph: &VertexGraph, radius: f64) -> Partition {
             vertex: seed,
         });
         // Dijkstra from the new seed, only where it is closer than the seeds before it.
-        while let Some(Frontier { distance: d, vertex }) = heap.pop() {
+        while let Some(Frontier {
+            distance: d,
+            vertex,
+        }) = heap.pop()
+        {
             if d > distance[vertex] {
                 continue;
             }
@@ -238,7 +242,10 @@ mod tests {
         let (mut v, mut t) = grid(4);
         let (v2, t2) = grid(4);
         let offset = v.len() as u32;
-        v.extend(v2.iter().map(|p| p + crate::math::Vector3::new(10.0, 0.0, 0.0)));
+        v.extend(
+            v2.iter()
+                .map(|p| p + crate::math::Vector3::new(10.0, 0.0, 0.0)),
+        );
         t.extend(t2.iter().map(|f| f.map(|i| i + offset)));
         let graph = VertexGraph::new(&v, &t, 1e-9);
         let comp = connected_components(&graph);

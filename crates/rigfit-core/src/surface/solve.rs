@@ -18,6 +18,10 @@ use crate::math::{Matrix3, Point3, Vector3, exp_rotation};
 /// A 6x6 block, row-major.
 type Block = [f64; 36];
 
+/// One neighbouring pair's share of the normal equations: the patches, their block slots
+/// `(k,k)`, `(l,l)`, `(k,l)`, the three blocks and the two gradients.
+type PairTerms = (usize, usize, [u32; 3], [Block; 3], [f64; 12]);
+
 /// The block pattern of the normal equations and its reusable symbolic factorisation.
 #[derive(Clone, Debug)]
 pub struct PatchSystem {
@@ -260,8 +264,8 @@ pub fn gauss_newton_step(
             let ybar = targets.weighted_sum[v] / w;
             let n = normals[v];
             let across = n * n.transpose();
-            let metric = (across + (Matrix3::identity() - across) * weights.tangential)
-                * (w * weights.data);
+            let metric =
+                (across + (Matrix3::identity() - across) * weights.tangential) * (w * weights.data);
             (v, metric, positions[v].coords - ybar)
         })
         .collect();
@@ -276,7 +280,11 @@ pub fn gauss_newton_step(
             for &(v, metric, r) in terms {
                 let pr = metric * r;
                 blend.clear();
-                blend.extend(model.blend(v).map(|(k, a)| (k, a, model.offset(pose, k, v))));
+                blend.extend(
+                    model
+                        .blend(v)
+                        .map(|(k, a)| (k, a, model.offset(pose, k, v))),
+                );
                 let pairs = &system.vertex_pairs[v];
                 let m = blend.len();
                 for (ia, &(ka, aa, qa)) in blend.iter().enumerate() {
@@ -284,7 +292,12 @@ pub fn gauss_newton_step(
                     let pa = metric * aa;
                     for (ib, &(kb, ab, qb)) in blend.iter().enumerate() {
                         if ka <= kb {
-                            add_jtpj(&mut blocks[pairs[ia * m + ib] as usize], &(pa * ab), &qa, &qb);
+                            add_jtpj(
+                                &mut blocks[pairs[ia * m + ib] as usize],
+                                &(pa * ab),
+                                &qa,
+                                &qb,
+                            );
                         }
                     }
                 }
@@ -305,11 +318,11 @@ pub fn gauss_newton_step(
 
     // Rigidity (eq. 4): residual x_k(v) - x_l(v) over v in P_k and P_l, weight
     // alpha_k(v) + alpha_l(v); the Jacobian is J_k(v) for patch k and -J_l(v) for patch l.
-    let rigidity: Vec<(usize, usize, [u32; 3], Vec<Block>, [f64; 12])> = system
+    let rigidity: Vec<PairTerms> = system
         .rigidity_pairs
         .par_iter()
         .map(|&(k, l, ids)| {
-            let mut b = vec![[0.0; 36]; 3];
+            let mut b = [[0.0; 36]; 3];
             let mut g = [0.0; 12];
             for &v in model.members[k].iter().chain(&model.members[l]) {
                 let v = v as usize;
