@@ -289,3 +289,33 @@ fn non_manifold_and_disconnected_references_are_tracked() {
             .all(|p| p.iter().all(|x| x.is_finite()))
     );
 }
+
+#[test]
+fn obj_frames_and_obj_references_are_read() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let reference = two_objects();
+    let ref_path = dir.path().join("reference.obj");
+    rigfit_formats::obj::write_obj(&ref_path, &reference).expect("write reference");
+    // The frame: the reference's own surface as a mesh (face normals are used).
+    let frame = dir.path().join("frame.obj");
+    rigfit_formats::obj::write_obj(
+        &frame,
+        &TriMesh {
+            normals: None,
+            ..reference.clone()
+        },
+    )
+    .expect("write frame");
+    let out = dir.path().join("out");
+    let o = rigfit(&["surface", s(&ref_path), s(&frame), "-o", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let fitted = read_ply(&out.join("frame_00000.ply")).expect("output");
+    let diagonal = reference.bounds().expect("bounds").diagonal();
+    let worst = fitted
+        .vertices
+        .iter()
+        .zip(&reference.vertices)
+        .map(|(a, b)| (a - b).norm())
+        .fold(0.0, f64::max);
+    assert!(worst < 0.01 * diagonal, "worst {worst}");
+}
