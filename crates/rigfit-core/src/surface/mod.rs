@@ -294,11 +294,11 @@ impl SurfaceTracker {
                 &weights,
             )?;
             let moved_to = self.model.positions(&self.pose);
-            // The M-step for sigma: the weighted mean squared residual per coordinate.
-            sigma = (targets.residual(&moved_to) / (3.0 * total))
-                .sqrt()
-                .max(sigma * self.options.anneal)
-                .max(min_sigma);
+            // The M-step for sigma: the weighted mean squared residual per coordinate, falling
+            // no faster than the annealing allows.
+            let sigma_em = (targets.residual(&moved_to) / (3.0 * total)).sqrt();
+            let annealing = sigma_em < sigma * self.options.anneal && sigma > min_sigma;
+            sigma = sigma_em.max(sigma * self.options.anneal).max(min_sigma);
             // Root mean square displacement of the vertices in this iteration.
             let moved = (moved_to
                 .iter()
@@ -309,7 +309,10 @@ impl SurfaceTracker {
                 .sqrt();
             positions = moved_to;
             normals = self.model.normals(&self.pose);
-            if moved < self.options.tolerance * diagonal && iteration >= coarse_iterations {
+            // Done when the mesh stopped moving, sigma is no longer held up by the annealing,
+            // and every point is in play.
+            let all_points = coarse.is_none() || iteration >= coarse_iterations;
+            if moved < self.options.tolerance * diagonal && !annealing && all_points {
                 break;
             }
         }
