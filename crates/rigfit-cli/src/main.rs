@@ -29,6 +29,8 @@ enum Command {
     DemoRig(commands::demo_rig::DemoRigArgs),
     /// Draw rigs, meshes, point clouds and strokes from several views into a .png.
     Render(commands::render::RenderArgs),
+    /// Track a reference mesh through a sequence of point clouds or meshes.
+    Surface(commands::surface::SurfaceArgs),
 }
 
 fn main() -> ExitCode {
@@ -49,6 +51,7 @@ fn main() -> ExitCode {
         Command::Info(args) => commands::info::run(&args),
         Command::DemoRig(args) => commands::demo_rig::run(&args),
         Command::Render(args) => commands::render::run(&args),
+        Command::Surface(args) => commands::surface::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

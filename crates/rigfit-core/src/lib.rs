@@ -16,6 +16,7 @@ pub mod rig;
 pub mod skeleton;
 pub mod skinning;
 pub mod strokes;
+pub mod surface;
 pub mod track;
 
 pub use animation::{Animation, AnimationChannel, ChannelTarget, Interpolation};

@@ -1,0 +1,178 @@
+//! `rigfit surface MESH FRAME... -o OUTDIR`: track a reference mesh through a sequence of
+//! point clouds or meshes (Cagniart et al. 2010), writing the moved reference per frame.
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, anyhow};
+use rigfit_core::TriMesh;
+use rigfit_core::surface::cases::skinned_surface;
+use rigfit_core::surface::{Observations, SurfaceError, SurfaceOptions, SurfaceTracker};
+use rigfit_formats::error::{extension, write_atomic};
+use rigfit_formats::obj::read_obj;
+use rigfit_formats::ply::{ply_bytes, read_ply};
+use rigfit_formats::rig_file::{RigOptions, read_rig};
+use serde_json::json;
+
+#[derive(Debug, clap::Args)]
+pub struct SurfaceArgs {
+    /// The reference surface: .ply, .obj, or a .glb/.gltf (its skinned meshes in the stored
+    /// pose).
+    pub mesh: PathBuf,
+    /// The frames, in order: point clouds or meshes (.ply, .obj), with or without normals.
+    #[arg(required = true)]
+    pub frames: Vec<PathBuf>,
+    /// Output folder: frame_00000.ply, ... (the reference's vertices, moved, and its faces).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Write a JSON report: per frame the file, inlier count, rms residual and seconds.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Largest patch radius, as a fraction of the reference's bounding-box diagonal.
+    #[arg(long, default_value_t = SurfaceOptions::default().patches.radius)]
+    pub patch_radius: f64,
+    /// Expected fraction of outlier points in a frame.
+    #[arg(long, default_value_t = SurfaceOptions::default().data.outlier_ratio)]
+    pub outliers: f64,
+    /// Weight of the rigidity between neighbouring patches.
+    #[arg(long, default_value_t = SurfaceOptions::default().rigidity)]
+    pub rigidity: f64,
+    /// EM iterations per frame at most.
+    #[arg(long, default_value_t = SurfaceOptions::default().max_iterations)]
+    pub iterations: usize,
+}
+
+/// Reads a mesh or point cloud by extension.
+fn read_mesh(path: &Path) -> anyhow::Result<TriMesh> {
+    Ok(match extension(path).as_str() {
+        "ply" => read_ply(path)?,
+        "obj" => read_obj(path)?,
+        _ => {
+            return Err(rigfit_formats::FormatError::Unsupported {
+                path: path.to_path_buf(),
+                expected: "a mesh or point cloud: .ply or .obj".into(),
+            }
+            .into());
+        }
+    })
+}
+
+/// The reference: a mesh file, or the skinned meshes of a rig in its stored pose.
+fn read_reference(path: &Path) -> anyhow::Result<TriMesh> {
+    match extension(path).as_str() {
+        "glb" | "gltf" => {
+            let file = read_rig(path, &RigOptions::default())?;
+            if file.rig.meshes.iter().all(|m| m.positions.is_empty()) {
+                return Err(anyhow!("{}: the skin has no mesh", path.display()));
+            }
+            Ok(skinned_surface(&file.rig, &file.rig.pose))
+        }
+        "ply" | "obj" => read_mesh(path),
+        _ => Err(rigfit_formats::FormatError::Unsupported {
+            path: path.to_path_buf(),
+            expected: "a reference mesh: .ply, .obj, .glb or .gltf".into(),
+        }
+        .into()),
+    }
+}
+
+fn named(path: &Path, e: SurfaceError) -> anyhow::Error {
+    anyhow!("{}: {e}", path.display())
+}
+
+/// A one-line progress bar on stderr, only when stderr is a terminal.
+struct Progress {
+    total: usize,
+    enabled: bool,
+}
+
+impl Progress {
+    fn show(&self, done: usize, ms: f64) {
+        if !self.enabled {
+            return;
+        }
+        let width = 30;
+        let filled = done * width / self.total.max(1);
+        eprint!(
+            "\r[{}{}] {done}/{} frames ({ms:.0} ms/frame)",
+            "#".repeat(filled),
+            " ".repeat(width - filled),
+            self.total
+        );
+        if done == self.total {
+            eprintln!();
+        }
+        let _ = std::io::stderr().flush();
+    }
+}
+
+pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
+    let reference = read_reference(&args.mesh)?;
+    let mut options = SurfaceOptions::default();
+    options.patches.radius = args.patch_radius;
+    options.data.outlier_ratio = args.outliers;
+    options.rigidity = args.rigidity;
+    options.max_iterations = args.iterations.max(1);
+    if !(options.patches.radius > 0.0 && options.patches.radius.is_finite()) {
+        return Err(anyhow!("--patch-radius: expected a positive fraction"));
+    }
+    if !(0.0..1.0).contains(&options.data.outlier_ratio) {
+        return Err(anyhow!("--outliers: expected a fraction in [0, 1)"));
+    }
+    if !(options.rigidity >= 0.0 && options.rigidity.is_finite()) {
+        return Err(anyhow!("--rigidity: expected a non-negative number"));
+    }
+    let mut tracker =
+        SurfaceTracker::new(&reference, &options).map_err(|e| named(&args.mesh, e))?;
+    let progress = Progress {
+        total: args.frames.len(),
+        enabled: std::io::stderr().is_terminal(),
+    };
+    // Every frame is solved before anything is written: a bad frame leaves no output.
+    let mut results = Vec::with_capacity(args.frames.len());
+    let mut total_seconds = 0.0;
+    for (i, path) in args.frames.iter().enumerate() {
+        let frame = read_mesh(path)?;
+        let observations = Observations::from_mesh(&frame).map_err(|e| named(path, e))?;
+        let t0 = Instant::now();
+        let fit = tracker.track(&observations).map_err(|e| named(path, e))?;
+        let seconds = t0.elapsed().as_secs_f64();
+        total_seconds += seconds;
+        progress.show(i + 1, total_seconds / (i + 1) as f64 * 1000.0);
+        results.push((path, fit, seconds));
+    }
+    std::fs::create_dir_all(&args.output)
+        .with_context(|| format!("{}: cannot create the folder", args.output.display()))?;
+    let mut frames_json = Vec::with_capacity(results.len());
+    for (i, (path, fit, seconds)) in results.iter().enumerate() {
+        let mesh = TriMesh {
+            normals: None,
+            triangles: reference.triangles.clone(),
+            vertices: fit.positions.clone(),
+        };
+        let out = args.output.join(format!("frame_{i:05}.ply"));
+        write_atomic(&out, &ply_bytes(&mesh, true))?;
+        frames_json.push(json!({
+            "file": path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            "inliers": fit.inliers,
+            "rms": fit.rms,
+            "seconds": seconds,
+        }));
+    }
+    if let Some(report) = &args.report {
+        let value = json!({ "frames": frames_json });
+        let text = serde_json::to_string_pretty(&value).context("the report")? + "\n";
+        write_atomic(report, text.as_bytes())?;
+    }
+    println!(
+        "tracked {} ({} vertices, {} patches) through {} frames in {:.1} ms per frame; wrote {}",
+        args.mesh.display(),
+        reference.vertices.len(),
+        tracker.model.patch_count(),
+        results.len(),
+        total_seconds / results.len().max(1) as f64 * 1000.0,
+        args.output.display()
+    );
+    Ok(())
+}

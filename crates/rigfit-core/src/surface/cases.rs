@@ -1,0 +1,356 @@
+//! Ground-truth scan sequences from skinned characters: the mesh is skinned at every frame of
+//! one of the rig's animations (the true vertex positions), and each frame's scan is drawn
+//! afresh from that surface (points and normals, no vertex shared with the reference), with
+//! Gaussian noise, outliers (a floor slab and random clutter) and, for some frames, a hole
+//! where a limb is not seen. Used by tests, benches and the peer comparison.
+
+use rand::Rng;
+use rand_distr::{Distribution, Normal};
+
+use crate::geometry::{Aabb, TriMesh};
+use crate::math::{Point3, Vector3};
+use crate::rig::Rig;
+use crate::skeleton::Pose;
+
+/// How to draw a sequence. Lengths are fractions of the reference's bounding-box diagonal.
+#[derive(Clone, Debug)]
+pub struct SequenceOptions {
+    pub frames: usize,
+    /// Points per frame, outliers included.
+    pub points: usize,
+    /// Gaussian noise per coordinate.
+    pub noise: f64,
+    /// Fraction of each frame's points that are outliers: half a floor slab under the
+    /// character, half clutter in the space around it.
+    pub outlier_ratio: f64,
+    /// Frames in which a limb region is missing from the scan.
+    pub hole_frames: std::ops::Range<usize>,
+    /// Fraction of the vertices in the missing region (the limb whose share is closest).
+    pub hole_size: f64,
+    /// Seconds between frames; `None` takes the clip's own key spacing (its frame rate),
+    /// `frames` of them from the middle of the clip.
+    pub frame_time: Option<f64>,
+}
+
+impl Default for SequenceOptions {
+    fn default() -> Self {
+        Self {
+            frames: 30,
+            points: 10_000,
+            noise: 0.01,
+            outlier_ratio: 0.15,
+            hole_frames: 10..13,
+            hole_size: 0.04,
+            frame_time: None,
+        }
+    }
+}
+
+/// A generated sequence.
+#[derive(Clone, Debug)]
+pub struct SurfaceSequence {
+    /// The reference: the character's meshes skinned at the first frame, with normals.
+    pub reference: TriMesh,
+    /// One scan per frame (points with normals, no faces).
+    pub frames: Vec<TriMesh>,
+    /// The true position of every reference vertex at every frame.
+    pub truth: Vec<Vec<Point3>>,
+    /// The vertices of the region left out of the scans in `hole_frames`.
+    pub hole_vertices: Vec<usize>,
+    /// The reference's bounding-box diagonal.
+    pub diagonal: f64,
+}
+
+/// Every skinned mesh of `rig` in `pose`, concatenated, with area-weighted face normals.
+pub fn skinned_surface(rig: &Rig, pose: &Pose) -> TriMesh {
+    let world = rig.skeleton.world_matrices(pose);
+    let mut mesh = TriMesh::default();
+    for m in &rig.meshes {
+        let offset = mesh.vertices.len() as u32;
+        let (positions, _) = m.skin(&world);
+        mesh.vertices.extend(positions);
+        mesh.triangles
+            .extend(m.triangles.iter().map(|t| t.map(|i| i + offset)));
+    }
+    mesh.normals = Some(mesh.vertex_normals_from_faces());
+    mesh
+}
+
+/// The animation of `rig` whose name contains `name` (case-insensitive), else the first.
+pub fn find_animation(rig: &Rig, name: &str) -> usize {
+    let name = name.to_ascii_lowercase();
+    rig.animations
+        .iter()
+        .position(|a| a.name.to_ascii_lowercase().contains(&name))
+        .unwrap_or(0)
+}
+
+/// The vertices of a limb: those whose dominant joint lies under the joint whose subtree
+/// holds the share of the vertices closest to `share` (a hand, a lower leg).
+fn limb_vertices(rig: &Rig, share: f64) -> Vec<usize> {
+    let dominant: Vec<usize> = rig.meshes.iter().flat_map(|m| m.dominant_joint()).collect();
+    let total = dominant.len().max(1) as f64;
+    let skeleton = &rig.skeleton;
+    let best = (0..skeleton.len())
+        .map(|j| {
+            let count = dominant
+                .iter()
+                .filter(|&&d| d < skeleton.len() && skeleton.is_ancestor_or_self(j, d))
+                .count();
+            (j, (count as f64 / total - share).abs(), count)
+        })
+        .filter(|&(_, _, c)| c > 0)
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    match best {
+        Some((j, _, _)) => (0..dominant.len())
+            .filter(|&v| {
+                dominant[v] < skeleton.len() && skeleton.is_ancestor_or_self(j, dominant[v])
+            })
+            .collect(),
+        None => Vec::new(),
+    }
+}
+
+/// Uniform samples of a triangle mesh's surface, with the faces' normals.
+pub fn sample_surface(
+    vertices: &[Point3],
+    triangles: &[[u32; 3]],
+    count: usize,
+    rng: &mut impl Rng,
+) -> (Vec<Point3>, Vec<Vector3>) {
+    let mut cumulative = Vec::with_capacity(triangles.len());
+    let mut total = 0.0;
+    for t in triangles {
+        let [a, b, c] = t.map(|i| vertices[i as usize]);
+        total += 0.5 * (b - a).cross(&(c - a)).norm();
+        cumulative.push(total);
+    }
+    let mut points = Vec::with_capacity(count);
+    let mut normals = Vec::with_capacity(count);
+    if total <= 0.0 {
+        return (points, normals);
+    }
+    for _ in 0..count {
+        let r = rng.random_range(0.0..total);
+        let t = cumulative
+            .partition_point(|&c| c < r)
+            .min(triangles.len() - 1);
+        let [a, b, c] = triangles[t].map(|i| vertices[i as usize]);
+        let (mut u, mut v) = (rng.random::<f64>(), rng.random::<f64>());
+        if u + v > 1.0 {
+            u = 1.0 - u;
+            v = 1.0 - v;
+        }
+        points.push(a + (b - a) * u + (c - a) * v);
+        normals.push(
+            (b - a)
+                .cross(&(c - a))
+                .try_normalize(1e-300)
+                .unwrap_or_else(Vector3::y),
+        );
+    }
+    (points, normals)
+}
+
+/// Draws a sequence of `rig`'s animation `animation` (the rig's stored pose if it has none).
+pub fn make_sequence(
+    rig: &Rig,
+    animation: usize,
+    options: &SequenceOptions,
+    rng: &mut impl Rng,
+) -> SurfaceSequence {
+    let frames = options.frames.max(1);
+    let poses: Vec<Pose> = match rig.animations.get(animation) {
+        Some(anim) => {
+            let (mut start, end) = (anim.start(), anim.end());
+            let step = match options.frame_time {
+                Some(dt) => dt,
+                None => {
+                    let dt = anim.duration() / (anim.frame_count().max(2) - 1) as f64;
+                    let span = dt * (frames - 1) as f64;
+                    start += ((end - start - span) / 2.0).max(0.0);
+                    dt
+                }
+            };
+            (0..frames)
+                .map(|f| anim.sample(&rig.pose, (start + step * f as f64).min(end)))
+                .collect()
+        }
+        None => vec![rig.pose.clone(); frames],
+    };
+    let reference = skinned_surface(rig, &poses[0]);
+    let bounds = Aabb::from_points(&reference.vertices).unwrap_or(Aabb {
+        min: Point3::origin(),
+        max: Point3::new(1.0, 1.0, 1.0),
+    });
+    let diagonal = bounds.diagonal().max(1e-12);
+    let hole_vertices = limb_vertices(rig, options.hole_size);
+    let mut in_hole = vec![false; reference.vertices.len()];
+    for &v in &hole_vertices {
+        in_hole[v] = true;
+    }
+    let visible_triangles: Vec<[u32; 3]> = reference
+        .triangles
+        .iter()
+        .copied()
+        .filter(|t| !t.iter().any(|&i| in_hole[i as usize]))
+        .collect();
+    let noise = Normal::new(0.0, (options.noise * diagonal).max(1e-300)).expect("valid deviation");
+    let outliers =
+        ((options.points as f64) * options.outlier_ratio.clamp(0.0, 1.0)).round() as usize;
+    let surface_points = options.points.saturating_sub(outliers);
+    let floor_y = bounds.min.y - 0.01 * diagonal;
+    let mut truth = Vec::with_capacity(frames);
+    let mut scans = Vec::with_capacity(frames);
+    for (f, pose) in poses.iter().enumerate() {
+        let surface = skinned_surface(rig, pose);
+        let triangles = if options.hole_frames.contains(&f) {
+            &visible_triangles
+        } else {
+            &surface.triangles
+        };
+        let (mut points, mut normals) =
+            sample_surface(&surface.vertices, triangles, surface_points, rng);
+        for p in &mut points {
+            *p += Vector3::new(noise.sample(rng), noise.sample(rng), noise.sample(rng));
+        }
+        let frame_bounds = Aabb::from_points(&surface.vertices).unwrap_or(bounds);
+        let margin = 0.15 * diagonal;
+        for o in 0..outliers {
+            if o % 2 == 0 {
+                // The floor: a thin slab under the character's first pose, wider than it.
+                let e = bounds.extent();
+                points.push(Point3::new(
+                    rng.random_range(bounds.min.x - 0.3 * e.x..bounds.max.x + 0.3 * e.x),
+                    floor_y - rng.random_range(0.0..0.005 * diagonal),
+                    rng.random_range(bounds.min.z - 0.3 * e.z..bounds.max.z + 0.3 * e.z),
+                ));
+                normals.push(Vector3::y());
+            } else {
+                points.push(Point3::from(Vector3::from_fn(|i, _| {
+                    rng.random_range(frame_bounds.min[i] - margin..frame_bounds.max[i] + margin)
+                })));
+                let n = Vector3::new(noise.sample(rng), noise.sample(rng), noise.sample(rng));
+                normals.push(n.try_normalize(1e-300).unwrap_or_else(Vector3::x));
+            }
+        }
+        truth.push(surface.vertices);
+        scans.push(TriMesh {
+            vertices: points,
+            normals: Some(normals),
+            triangles: Vec::new(),
+        });
+    }
+    SurfaceSequence {
+        reference,
+        frames: scans,
+        truth,
+        hole_vertices,
+        diagonal,
+    }
+}
+
+/// Per-vertex distances between `fitted` and `truth` over every frame, as fractions of
+/// `diagonal`.
+pub fn vertex_errors(fitted: &[Vec<Point3>], truth: &[Vec<Point3>], diagonal: f64) -> Vec<f64> {
+    fitted
+        .iter()
+        .zip(truth)
+        .flat_map(|(a, b)| a.iter().zip(b).map(|(p, q)| (p - q).norm() / diagonal))
+        .collect()
+}
+
+/// Mean and 95th percentile of errors.
+pub fn mean_and_p95(errors: &[f64]) -> (f64, f64) {
+    if errors.is_empty() {
+        return (0.0, 0.0);
+    }
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    let mut sorted = errors.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let p95 = sorted[((sorted.len() - 1) as f64 * 0.95).round() as usize];
+    (mean, p95)
+}
+
+/// A torus of `rings` x `segments` vertices (major radius 1, minor radius 0.35) around the
+/// y axis, with face normals: a reference of any size for speed measurements.
+pub fn torus(rings: usize, segments: usize) -> TriMesh {
+    let mut vertices = Vec::with_capacity(rings * segments);
+    for i in 0..rings {
+        let u = 2.0 * std::f64::consts::PI * i as f64 / rings as f64;
+        for j in 0..segments {
+            let v = 2.0 * std::f64::consts::PI * j as f64 / segments as f64;
+            let r = 1.0 + 0.35 * v.cos();
+            vertices.push(Point3::new(r * u.cos(), 0.35 * v.sin(), r * u.sin()));
+        }
+    }
+    let index = |i: usize, j: usize| ((i % rings) * segments + (j % segments)) as u32;
+    let mut triangles = Vec::with_capacity(2 * rings * segments);
+    for i in 0..rings {
+        for j in 0..segments {
+            let (a, b, c, d) = (
+                index(i, j),
+                index(i + 1, j),
+                index(i, j + 1),
+                index(i + 1, j + 1),
+            );
+            triangles.push([a, c, b]);
+            triangles.push([b, c, d]);
+        }
+    }
+    let mut mesh = TriMesh {
+        vertices,
+        normals: None,
+        triangles,
+    };
+    mesh.normals = Some(mesh.vertex_normals_from_faces());
+    mesh
+}
+
+/// `mesh` bent: every vertex turned about the z axis by an angle growing with its x, and
+/// lifted, by `amount` (0: unchanged).
+pub fn bend(mesh: &TriMesh, amount: f64) -> Vec<Point3> {
+    mesh.vertices
+        .iter()
+        .map(|p| {
+            let angle = amount * (p.x + 1.5) * 0.3;
+            let (s, c) = angle.sin_cos();
+            Point3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z)
+                + Vector3::new(0.0, amount * 0.2, 0.0)
+        })
+        .collect()
+}
+
+/// A scan of `vertices` (with `triangles`): `count` points, Gaussian noise of `noise` (per
+/// coordinate) and a fraction `outlier_ratio` of uniform clutter around it.
+pub fn scan(
+    vertices: &[Point3],
+    triangles: &[[u32; 3]],
+    count: usize,
+    noise: f64,
+    outlier_ratio: f64,
+    rng: &mut impl Rng,
+) -> TriMesh {
+    let outliers = (count as f64 * outlier_ratio).round() as usize;
+    let (mut points, mut normals) =
+        sample_surface(vertices, triangles, count.saturating_sub(outliers), rng);
+    let normal = Normal::new(0.0, noise.max(1e-300)).expect("valid deviation");
+    for p in &mut points {
+        *p += Vector3::new(normal.sample(rng), normal.sample(rng), normal.sample(rng));
+    }
+    let bounds = Aabb::from_points(vertices).unwrap_or(Aabb {
+        min: Point3::origin(),
+        max: Point3::new(1.0, 1.0, 1.0),
+    });
+    for _ in 0..outliers {
+        points.push(Point3::from(Vector3::from_fn(|i, _| {
+            rng.random_range(bounds.min[i] - 0.2..bounds.max[i] + 0.2)
+        })));
+        normals.push(Vector3::y());
+    }
+    TriMesh {
+        vertices: points,
+        normals: Some(normals),
+        triangles: Vec::new(),
+    }
+}

@@ -1,0 +1,403 @@
+//! The M-step (Cagniart et al. 2010, eq. 15): one Gauss-Newton step on the data term (the
+//! E-step's posteriors collapsed per vertex) plus the rigidity energy (eq. 4). Unknowns are
+//! six per patch (a rotation increment `R_k <- exp([w_k]x) R_k` and a centre shift); the
+//! normal equations are block-sparse with the pattern of the patch adjacency (two rings:
+//! a vertex blends its patch's neighbours, which may not neighbour each other). The pattern
+//! never changes, so its symbolic Cholesky factorisation is computed once and reused.
+
+use faer::Side;
+use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
+use rayon::prelude::*;
+
+use super::estep::VertexTargets;
+use super::model::{PatchModel, PatchPose};
+use crate::math::{Matrix3, Point3, Vector3, exp_rotation};
+
+/// A 6x6 block, row-major.
+type Block = [f64; 36];
+
+/// One neighbouring pair's share of the normal equations: the patches, their block slots
+/// `(k,k)`, `(l,l)`, `(k,l)`, the three blocks and the two gradients.
+type PairTerms = (usize, usize, [u32; 3], [Block; 3], [f64; 12]);
+
+/// The block pattern of the normal equations and its reusable symbolic factorisation.
+#[derive(Clone, Debug)]
+pub struct PatchSystem {
+    patch_count: usize,
+    /// For each block column `l`, the block rows `k <= l` present (sorted).
+    column_rows: Vec<Vec<u32>>,
+    /// Offset of column `l`'s first block in `blocks`.
+    column_offset: Vec<usize>,
+    /// For each vertex, the block index of every pair of its blended patches
+    /// (`blend` order, row-major over the pair).
+    vertex_pairs: Vec<Vec<u32>>,
+    /// For each neighbouring pair `(k, l)`: blocks `(k,k)`, `(l,l)`, `(min,max)`.
+    rigidity_pairs: Vec<(usize, usize, [u32; 3])>,
+    symbolic_matrix: SymbolicSparseColMat<usize>,
+    symbolic: SymbolicLlt<usize>,
+    /// For each scalar entry of the CSC matrix, its block and position in the block.
+    value_source: Vec<(u32, u8)>,
+}
+
+/// Problems of the linear solve.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SolveError {
+    #[error("the normal equations could not be factorised")]
+    Factorisation,
+}
+
+impl PatchSystem {
+    pub fn new(model: &PatchModel) -> Result<Self, SolveError> {
+        let n = model.patch_count();
+        let mut column_rows: Vec<Vec<u32>> = (0..n).map(|l| vec![l as u32]).collect();
+        let mut add = |a: usize, b: usize| {
+            let (k, l) = if a <= b { (a, b) } else { (b, a) };
+            column_rows[l].push(k as u32);
+        };
+        for v in 0..model.vertex_count() {
+            let patches: Vec<usize> = model.blend(v).map(|(k, _)| k).collect();
+            for &a in &patches {
+                for &b in &patches {
+                    if a < b {
+                        add(a, b);
+                    }
+                }
+            }
+        }
+        for (k, l) in model.neighbour_pairs() {
+            add(k, l);
+        }
+        for rows in &mut column_rows {
+            rows.sort_unstable();
+            rows.dedup();
+        }
+        let mut column_offset = Vec::with_capacity(n + 1);
+        let mut total = 0;
+        for rows in &column_rows {
+            column_offset.push(total);
+            total += rows.len();
+        }
+        column_offset.push(total);
+        let block_of = |column_rows: &[Vec<u32>], a: usize, b: usize| -> u32 {
+            let (k, l) = if a <= b { (a, b) } else { (b, a) };
+            let slot = column_rows[l]
+                .binary_search(&(k as u32))
+                .expect("every pair is in the pattern");
+            (column_offset[l] + slot) as u32
+        };
+        let vertex_pairs: Vec<Vec<u32>> = (0..model.vertex_count())
+            .map(|v| {
+                let patches: Vec<usize> = model.blend(v).map(|(k, _)| k).collect();
+                let mut out = Vec::with_capacity(patches.len() * patches.len());
+                for &a in &patches {
+                    for &b in &patches {
+                        out.push(block_of(&column_rows, a, b));
+                    }
+                }
+                out
+            })
+            .collect();
+        let rigidity_pairs = model
+            .neighbour_pairs()
+            .into_iter()
+            .map(|(k, l)| {
+                (
+                    k,
+                    l,
+                    [
+                        block_of(&column_rows, k, k),
+                        block_of(&column_rows, l, l),
+                        block_of(&column_rows, k, l),
+                    ],
+                )
+            })
+            .collect();
+        // The scalar pattern: upper triangle of the block pattern.
+        let dim = 6 * n;
+        let mut col_ptr = Vec::with_capacity(dim + 1);
+        let mut row_idx = Vec::new();
+        let mut value_source = Vec::new();
+        col_ptr.push(0usize);
+        for l in 0..n {
+            for b in 0..6 {
+                for (slot, &k) in column_rows[l].iter().enumerate() {
+                    let block = (column_offset[l] + slot) as u32;
+                    let rows = if k as usize == l { b + 1 } else { 6 };
+                    for a in 0..rows {
+                        row_idx.push(6 * k as usize + a);
+                        value_source.push((block, (6 * a + b) as u8));
+                    }
+                }
+                col_ptr.push(row_idx.len());
+            }
+        }
+        let symbolic_matrix = SymbolicSparseColMat::new_checked(dim, dim, col_ptr, None, row_idx);
+        let symbolic = SymbolicLlt::try_new(symbolic_matrix.as_ref(), Side::Upper)
+            .map_err(|_| SolveError::Factorisation)?;
+        Ok(Self {
+            patch_count: n,
+            column_rows,
+            column_offset,
+            vertex_pairs,
+            rigidity_pairs,
+            symbolic_matrix,
+            symbolic,
+            value_source,
+        })
+    }
+
+    pub fn block_count(&self) -> usize {
+        self.column_offset[self.patch_count]
+    }
+
+    /// Solves `H x = rhs` for the assembled blocks (upper triangle read).
+    fn solve(&self, blocks: &[Block], rhs: &mut [f64]) -> Result<(), SolveError> {
+        let values: Vec<f64> = self
+            .value_source
+            .iter()
+            .map(|&(b, e)| blocks[b as usize][e as usize])
+            .collect();
+        let matrix = SparseColMatRef::new(self.symbolic_matrix.as_ref(), &values);
+        let llt = Llt::try_new_with_symbolic(self.symbolic.clone(), matrix, Side::Upper)
+            .map_err(|_| SolveError::Factorisation)?;
+        llt.solve_in_place(faer::ColMut::from_slice_mut(rhs));
+        if rhs.iter().all(|x| x.is_finite()) {
+            Ok(())
+        } else {
+            Err(SolveError::Factorisation)
+        }
+    }
+}
+
+/// `[q]x`, the cross-product matrix.
+#[inline]
+fn skew(q: &Vector3) -> Matrix3 {
+    Matrix3::new(0.0, -q.z, q.y, q.z, 0.0, -q.x, -q.y, q.x, 0.0)
+}
+
+/// Adds `w * J_a^T J_b` for `J = [-[q]x, I]` (the Jacobian of a prediction with respect to
+/// its patch's rotation increment and centre shift).
+#[inline]
+fn add_jtj(block: &mut Block, w: f64, qa: &Vector3, qb: &Vector3) {
+    let sa = skew(qa);
+    let sb = skew(qb);
+    // J_a^T J_b = [[-[qa]x [qb]x, [qa]x], [-[qb]x, I]].
+    let tl = -(sa * sb);
+    for r in 0..3 {
+        for c in 0..3 {
+            block[6 * r + c] += w * tl[(r, c)];
+            block[6 * r + c + 3] += w * sa[(r, c)];
+            block[6 * (r + 3) + c] -= w * sb[(r, c)];
+        }
+        block[6 * (r + 3) + r + 3] += w;
+    }
+}
+
+/// Adds `J_a^T P J_b` for `J = [-[q]x, I]` and a symmetric metric `P` (already weighted).
+#[inline]
+fn add_jtpj(block: &mut Block, p: &Matrix3, qa: &Vector3, qb: &Vector3) {
+    let sa = skew(qa);
+    let sb = skew(qb);
+    // J_a^T P J_b = [[-[qa]x P [qb]x, [qa]x P], [-P [qb]x, P]].
+    let sap = sa * p;
+    let tl = -(sap * sb);
+    let bl = -(p * sb);
+    for r in 0..3 {
+        for c in 0..3 {
+            block[6 * r + c] += tl[(r, c)];
+            block[6 * r + c + 3] += sap[(r, c)];
+            block[6 * (r + 3) + c] += bl[(r, c)];
+            block[6 * (r + 3) + c + 3] += p[(r, c)];
+        }
+    }
+}
+
+/// Adds `w * J^T r` for `J = [-[q]x, I]`.
+#[inline]
+fn add_jtr(g: &mut [f64], w: f64, q: &Vector3, r: &Vector3) {
+    let top = q.cross(r);
+    for i in 0..3 {
+        g[i] += w * top[i];
+        g[i + 3] += w * r[i];
+    }
+}
+
+/// Weights of the two energy terms.
+#[derive(Clone, Debug)]
+pub struct StepWeights {
+    /// Weight of the data term: `1 / sigma^2`.
+    pub data: f64,
+    /// Weight of the rigidity energy (eq. 4).
+    pub rigidity: f64,
+    /// Levenberg-Marquardt damping, relative to each diagonal entry.
+    pub damping: f64,
+    /// Weight of the data residual's component along the surface, against 1 across it:
+    /// 1 is the paper's point-to-point distance; below 1 lets a vertex slide along the
+    /// surface toward the centroid of its points without the mesh being dragged by the way
+    /// points happen to fall around vertices.
+    pub tangential: f64,
+}
+
+/// One Gauss-Newton step on `data * sum_v W_v |x(v) - ybar_v|_P^2 + rigidity * E_r`, applied
+/// to `pose` in place, where `P = n n^T + tangential (I - n n^T)` for the vertex normal `n`.
+pub fn gauss_newton_step(
+    model: &PatchModel,
+    system: &PatchSystem,
+    pose: &mut PatchPose,
+    positions: &[Point3],
+    normals: &[Vector3],
+    targets: &VertexTargets,
+    weights: &StepWeights,
+) -> Result<(), SolveError> {
+    let n = model.patch_count();
+    let mut blocks = vec![[0.0; 36]; system.block_count()];
+    let mut gradient = vec![0.0; 6 * n];
+
+    // Data term, vertex by vertex: residual x(v) - ybar_v with weight W_v; the Jacobian of
+    // x(v) is sum_k alpha_k(v) J_k(v) (eq. 2).
+    let data_terms: Vec<(usize, Matrix3, Vector3)> = (0..model.vertex_count())
+        .filter(|&v| targets.weight[v] > 1e-12)
+        .map(|v| {
+            let w = targets.weight[v];
+            let ybar = targets.weighted_sum[v] / w;
+            let n = normals[v];
+            let across = n * n.transpose();
+            let metric =
+                (across + (Matrix3::identity() - across) * weights.tangential) * (w * weights.data);
+            (v, metric, positions[v].coords - ybar)
+        })
+        .collect();
+    // Two halves in parallel, each into its own blocks, then summed.
+    let half = data_terms.len().div_ceil(2).max(1);
+    let partial: Vec<(Vec<Block>, Vec<f64>)> = data_terms
+        .par_chunks(half)
+        .map(|terms| {
+            let mut blocks = vec![[0.0; 36]; system.block_count()];
+            let mut gradient = vec![0.0; 6 * n];
+            let mut blend: Vec<(usize, f64, Vector3)> = Vec::with_capacity(16);
+            for &(v, metric, r) in terms {
+                let pr = metric * r;
+                blend.clear();
+                blend.extend(
+                    model
+                        .blend(v)
+                        .map(|(k, a)| (k, a, model.offset(pose, k, v))),
+                );
+                let pairs = &system.vertex_pairs[v];
+                let m = blend.len();
+                for (ia, &(ka, aa, qa)) in blend.iter().enumerate() {
+                    add_jtr(&mut gradient[6 * ka..6 * ka + 6], aa, &qa, &pr);
+                    let pa = metric * aa;
+                    for (ib, &(kb, ab, qb)) in blend.iter().enumerate() {
+                        if ka <= kb {
+                            add_jtpj(
+                                &mut blocks[pairs[ia * m + ib] as usize],
+                                &(pa * ab),
+                                &qa,
+                                &qb,
+                            );
+                        }
+                    }
+                }
+            }
+            (blocks, gradient)
+        })
+        .collect();
+    for (b, g) in partial {
+        for (t, s) in blocks.iter_mut().zip(&b) {
+            for (x, y) in t.iter_mut().zip(s) {
+                *x += y;
+            }
+        }
+        for (x, y) in gradient.iter_mut().zip(&g) {
+            *x += y;
+        }
+    }
+
+    // Rigidity (eq. 4): residual x_k(v) - x_l(v) over v in P_k and P_l, weight
+    // alpha_k(v) + alpha_l(v); the Jacobian is J_k(v) for patch k and -J_l(v) for patch l.
+    let rigidity: Vec<PairTerms> = system
+        .rigidity_pairs
+        .par_iter()
+        .map(|&(k, l, ids)| {
+            let mut b = [[0.0; 36]; 3];
+            let mut g = [0.0; 12];
+            for &v in model.members[k].iter().chain(&model.members[l]) {
+                let v = v as usize;
+                let beta = weights.rigidity * (model.alpha(k, v) + model.alpha(l, v));
+                let qk = model.offset(pose, k, v);
+                let ql = model.offset(pose, l, v);
+                let r = (pose.centre[k] + qk) - (pose.centre[l] + ql);
+                add_jtj(&mut b[0], beta, &qk, &qk);
+                add_jtj(&mut b[1], beta, &ql, &ql);
+                add_jtj(&mut b[2], -beta, &qk, &ql);
+                add_jtr(&mut g[..6], beta, &qk, &r);
+                add_jtr(&mut g[6..], -beta, &ql, &r);
+            }
+            (k, l, ids, b, g)
+        })
+        .collect();
+    // Pairs are (k, l) with k < l: the cross block is stored as it is.
+    for (k, l, ids, b, g) in rigidity {
+        for (slot, block) in ids.iter().zip(&b) {
+            for (t, s) in blocks[*slot as usize].iter_mut().zip(block) {
+                *t += s;
+            }
+        }
+        for i in 0..6 {
+            gradient[6 * k + i] += g[i];
+            gradient[6 * l + i] += g[6 + i];
+        }
+    }
+
+    // Damping: relative (Levenberg-Marquardt) plus a floor so that patches with no data and
+    // no neighbours (a lone object out of view) stay put instead of making H singular.
+    // Rotation entries scale with length^2: the floor compares them at the model's size.
+    let diagonal_block = |k: usize| {
+        let slot = system.column_rows[k]
+            .binary_search(&(k as u32))
+            .expect("every column holds its diagonal block");
+        system.column_offset[k] + slot
+    };
+    let max_translation = (0..n)
+        .flat_map(|k| (3..6).map(move |i| (k, i)))
+        .map(|(k, i)| blocks[diagonal_block(k)][7 * i])
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    // A weak prior to stay put, worth about `damping` of an average patch's data, so that a
+    // patch seen by a handful of points cannot swing far in one step.
+    let data_weight: f64 = targets.weight.iter().sum::<f64>() * weights.data;
+    let floor_translation = 1e-9 * max_translation + weights.damping * data_weight / n as f64;
+    let floor_rotation = floor_translation * model.diagonal * model.diagonal;
+    for k in 0..n {
+        let block = &mut blocks[diagonal_block(k)];
+        for i in 0..6 {
+            let floor = if i < 3 {
+                floor_rotation
+            } else {
+                floor_translation
+            };
+            block[7 * i] += weights.damping * block[7 * i] + floor;
+        }
+    }
+
+    let mut rhs: Vec<f64> = gradient.iter().map(|g| -g).collect();
+    system.solve(&blocks, &mut rhs)?;
+    for k in 0..n {
+        let w = Vector3::new(rhs[6 * k], rhs[6 * k + 1], rhs[6 * k + 2]);
+        let dc = Vector3::new(rhs[6 * k + 3], rhs[6 * k + 4], rhs[6 * k + 5]);
+        let turn = exp_rotation(&w).to_rotation_matrix().into_inner();
+        pose.rotation[k] = orthonormalise(&(turn * pose.rotation[k]));
+        pose.centre[k] += dc;
+    }
+    Ok(())
+}
+
+/// The nearest rotation to `m` (it drifts after many products).
+fn orthonormalise(m: &Matrix3) -> Matrix3 {
+    crate::math::Quat::from_matrix(m)
+        .to_rotation_matrix()
+        .into_inner()
+}

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Surface tracking against the PyPI tools a user would otherwise pick (rustcpd, cycpd,
+# trimesh's nricp_amberg), on the same generated scans, scored the same way (per-vertex
+# error against the true skinned vertices, % of the bounding-box diagonal). Installs the
+# peers in a venv under target/; prints a markdown table (BENCHMARKS.md, issue 5).
+#
+#   scripts/bench-surface-peers.sh [FRAMES]      (default 12: frames 0-11, two hole frames included)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$(pwd)
+frames=${1:-12}
+data=${RIGFIT_DATA:-$root/../shared/data}
+cargo=${CARGO:-/work/bin/cargo-slot}
+[ -x "$cargo" ] || cargo=cargo
+venv=$root/target/surface-peers-venv
+work=$root/target/surface-peers
+
+if [ ! -x "$venv/bin/python" ]; then
+  python3 -m venv "$venv"
+fi
+"$venv/bin/pip" install -q numpy scipy trimesh==5.2.0 rustcpd==4.0.0 cycpd==0.28
+
+"$cargo" build -q --release -p rigfit-cli --bin rigfit --example surface_sequence
+rigfit=$root/target/release/rigfit
+sequence=$root/target/release/examples/surface_sequence
+
+echo "| asset (clip) | method | mean error (% diag) | p95 (% diag) | ms/frame |"
+echo "|---|---|---|---|---|"
+for spec in "assimp/BCN_Epileptic.glb jump bcn" "assimp/Testwuson.glb run wuson"; do
+  set -- $spec
+  dir=$work/$3
+  rm -rf "$dir" && mkdir -p "$dir"
+  "$sequence" "$data/$1" "$2" "$dir/seq" 30 10000 > /dev/null
+  scans=$(for f in $(seq 0 $((frames - 1))); do printf '%s/seq/scan_%04d.ply ' "$dir" "$f"; done)
+  # shellcheck disable=SC2086
+  "$rigfit" surface "$dir/seq/reference.ply" $scans -o "$dir/rigfit" --report "$dir/rigfit.json" > /dev/null
+  "$venv/bin/python" scripts/surface_peers.py "$dir/seq" "$dir/rigfit" "$dir/rigfit.json" "$frames"
+done
