@@ -319,3 +319,26 @@ fn obj_frames_and_obj_references_are_read() {
         .fold(0.0, f64::max);
     assert!(worst < 0.01 * diagonal, "worst {worst}");
 }
+
+#[test]
+fn render_draws_a_contact_sheet_and_rejects_a_bad_picture_path() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (reference, frames, _) = write_scene(dir.path(), 3);
+    let out = dir.path().join("out");
+    let picture = dir.path().join("sheet.png");
+    let mut args = vec!["surface", s(&reference)];
+    args.extend(frames.iter().map(|f| s(f)));
+    args.extend(["-o", s(&out), "--render", s(&picture)]);
+    let o = rigfit(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let png = std::fs::read(&picture).expect("picture written");
+    assert_eq!(&png[1..4], b"PNG");
+    assert!(png.len() > 2000);
+
+    // The picture's folder is checked before any work.
+    let bad = Path::new("/nonexistent/dir/sheet.png");
+    let mut args = vec!["surface", s(&reference)];
+    args.extend(frames.iter().map(|f| s(f)));
+    args.extend(["-o", s(&out), "--render", s(bad)]);
+    assert_bad_input(&rigfit(&args), bad);
+}

@@ -41,6 +41,12 @@ pub struct SurfaceArgs {
     /// EM iterations per frame at most.
     #[arg(long, default_value_t = SurfaceOptions::default().max_iterations)]
     pub iterations: usize,
+    /// Draw a contact sheet of evenly spaced frames (the moved reference shaded flat over the
+    /// frame's points) with inliers and time per frame, as a .png.
+    #[arg(long)]
+    pub render: Option<PathBuf>,
+    #[command(flatten)]
+    pub picture: super::render::PictureArgs,
 }
 
 /// Reads a mesh or point cloud by extension.
@@ -108,6 +114,9 @@ impl Progress {
 }
 
 pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
+    if let Some(picture) = &args.render {
+        super::render::check_png_path(picture)?;
+    }
     let reference = read_reference(&args.mesh)?;
     let mut options = SurfaceOptions::default();
     options.patches.radius = args.patch_radius;
@@ -132,8 +141,13 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
     // Every frame is solved before anything is written: a bad frame leaves no output.
     let mut results = Vec::with_capacity(args.frames.len());
     let mut total_seconds = 0.0;
+    let shown = rigfit_render::pick_frames(args.frames.len(), 8);
+    let mut shown_points = Vec::new();
     for (i, path) in args.frames.iter().enumerate() {
         let frame = read_mesh(path)?;
+        if args.render.is_some() && shown.contains(&i) {
+            shown_points.push((i, frame.vertices.clone()));
+        }
         let observations = Observations::from_mesh(&frame).map_err(|e| named(path, e))?;
         let t0 = Instant::now();
         let fit = tracker.track(&observations).map_err(|e| named(path, e))?;
@@ -159,6 +173,33 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
             "rms": fit.rms,
             "seconds": seconds,
         }));
+    }
+    if let Some(picture) = &args.render {
+        let frames: Vec<(String, rigfit_render::Scene)> = shown_points
+            .iter()
+            .map(|(i, points)| {
+                let mut scene = rigfit_render::Scene::new();
+                scene
+                    .add_mesh(&TriMesh {
+                        normals: None,
+                        triangles: reference.triangles.clone(),
+                        vertices: results[*i].1.positions.clone(),
+                    })
+                    .add_points(points, None);
+                (format!("frame {i}"), scene)
+            })
+            .collect();
+        let stats = rigfit_render::FrameStats {
+            error: None,
+            error_label: String::new(),
+            inliers: results.iter().map(|r| r.1.inliers as f64).collect(),
+            seconds: results.iter().map(|r| r.2).collect(),
+        };
+        if let Some((_, first)) = frames.first() {
+            let options = args.picture.options(first);
+            let image = rigfit_render::tracking_sheet(&frames, &stats, &options);
+            super::render::write_png(picture, &image)?;
+        }
     }
     if let Some(report) = &args.report {
         let value = json!({ "frames": frames_json });
