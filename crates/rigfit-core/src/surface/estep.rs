@@ -194,6 +194,34 @@ impl VertexTargets {
     }
 }
 
+/// Candidates are searched again once a hypothesis moved by this fraction of a mean edge.
+const REUSE_DRIFT: f64 = 0.25;
+
+/// The hypotheses and each point's candidates among them, kept between the E-steps of one
+/// frame while no prediction has moved by more than a fraction of the mesh's spacing: the
+/// kd-tree is then neither rebuilt nor searched again.
+#[derive(Clone, Debug, Default)]
+pub struct EStepCache {
+    /// Each hypothesis: (vertex, patch whose prediction it is).
+    keys: Vec<(u32, u32)>,
+    /// Where the hypotheses were when the candidates were found.
+    found_at: Vec<Point3>,
+    /// `candidates[start[i]..start[i + 1]]` are point `i`'s hypotheses.
+    start: Vec<u32>,
+    candidates: Vec<u32>,
+    /// The search radius and the data it was run on (address and length).
+    radius: f64,
+    data: (usize, usize),
+}
+
+impl EStepCache {
+    /// Forgets the candidates (the next E-step searches again).
+    pub fn clear(&mut self) {
+        self.keys.clear();
+        self.found_at.clear();
+    }
+}
+
 /// Runs the E-step: posteriors of every point over the patches and the outlier component
 /// (eq. 8), for the deformed mesh `positions` of `pose`.
 pub fn e_step(
@@ -204,42 +232,102 @@ pub fn e_step(
     sigma: f64,
     options: &DataTermOptions,
 ) -> VertexTargets {
+    e_step_cached(
+        model,
+        pose,
+        positions,
+        data,
+        sigma,
+        options,
+        &mut EStepCache::default(),
+    )
+}
+
+/// [`e_step`] reusing `cache`'s candidates (each point's nearest hypotheses within the
+/// cutoff) while no hypothesis has moved by more than a quarter of a mean edge since they
+/// were found and the cutoff has not grown; otherwise the hypotheses are made and searched
+/// again and kept in `cache`.
+pub fn e_step_cached(
+    model: &PatchModel,
+    pose: &PatchPose,
+    positions: &[Point3],
+    data: &Observations,
+    sigma: f64,
+    options: &DataTermOptions,
+    cache: &mut EStepCache,
+) -> VertexTargets {
     let n_vertices = model.vertex_count();
-    // The hypotheses: for every vertex v of P_k, its prediction by P_k and by each neighbour
-    // l of P_k. Predictions that agree with the patch's own (within a fraction of an edge)
-    // add nothing and are left out, so a well-registered mesh costs one entry per vertex.
-    let merge = 0.3 * model.mean_edge;
-    let per_vertex: Vec<Vec<([f64; 3], Hypothesis)>> = (0..n_vertices)
-        .into_par_iter()
-        .map(|v| {
-            let k = model.vertex_patch[v] as usize;
-            let own = model.prediction(pose, k, v);
-            let mut out = vec![(
-                [own.x, own.y, own.z],
-                Hypothesis {
-                    vertex: v as u32,
-                    normal: pose.rotation[k] * model.rest_normals[v],
-                },
-            )];
-            for &l in &model.neighbours[k] {
-                let l = l as usize;
-                let p = model.prediction(pose, l, v);
-                if (p - own).norm() > merge {
-                    out.push((
-                        [p.x, p.y, p.z],
-                        Hypothesis {
-                            vertex: v as u32,
-                            normal: pose.rotation[l] * model.rest_normals[v],
-                        },
-                    ));
-                }
-            }
-            out
-        })
+    let cutoff = options.cutoff_sigmas * sigma;
+    let data_id = (data.points.as_ptr() as usize, data.points.len());
+    // Where the cached hypotheses are now, and whether the candidates still hold.
+    let now: Vec<Point3> = cache
+        .keys
+        .par_iter()
+        .map(|&(v, l)| model.prediction(pose, l as usize, v as usize))
         .collect();
-    let (coords, hypotheses): (Vec<[f64; 3]>, Vec<Hypothesis>) =
-        per_vertex.into_iter().flatten().unzip();
-    let tree = PointTree::new(&coords);
+    let drift = now
+        .iter()
+        .zip(&cache.found_at)
+        .map(|(a, b)| (a - b).norm_squared())
+        .fold(0.0, f64::max)
+        .sqrt();
+    // The candidates are each point's nearest few: they stay its nearest only while the
+    // hypotheses move by a fraction of their spacing.
+    let valid = !cache.keys.is_empty()
+        && cache.data == data_id
+        && cutoff <= cache.radius
+        && drift <= REUSE_DRIFT * model.mean_edge;
+    let now = if valid {
+        now
+    } else {
+        // The hypotheses: for every vertex v of P_k, its prediction by P_k and by each
+        // neighbour l of P_k. Predictions that agree with the patch's own (within a fraction
+        // of an edge) add nothing and are left out, so a well-registered mesh costs one entry
+        // per vertex.
+        let merge = 0.3 * model.mean_edge;
+        let per_vertex: Vec<Vec<((u32, u32), Point3)>> = (0..n_vertices)
+            .into_par_iter()
+            .map(|v| {
+                let k = model.vertex_patch[v] as usize;
+                let own = model.prediction(pose, k, v);
+                let mut out = vec![((v as u32, k as u32), own)];
+                for &l in &model.neighbours[k] {
+                    let p = model.prediction(pose, l as usize, v);
+                    if (p - own).norm() > merge {
+                        out.push(((v as u32, l), p));
+                    }
+                }
+                out
+            })
+            .collect();
+        let (keys, at): (Vec<(u32, u32)>, Vec<Point3>) = per_vertex.into_iter().flatten().unzip();
+        let coords: Vec<[f64; 3]> = at.iter().map(|p| [p.x, p.y, p.z]).collect();
+        let tree = PointTree::new(&coords);
+        let radius = cutoff;
+        let lists: Vec<Vec<u32>> = data
+            .points
+            .par_iter()
+            .map(|y| {
+                tree.nearest_within(y, options.max_candidates, radius)
+                    .into_iter()
+                    .map(|(h, _)| h as u32)
+                    .collect()
+            })
+            .collect();
+        cache.start.clear();
+        cache.candidates.clear();
+        cache.start.push(0);
+        for list in lists {
+            cache.candidates.extend(list);
+            cache.start.push(cache.candidates.len() as u32);
+        }
+        cache.keys = keys;
+        cache.found_at.clone_from(&at);
+        cache.radius = radius;
+        cache.data = data_id;
+        at
+    };
+    let cache = &*cache;
 
     // Priors: the outlier ratio, and the rest in proportion to patch areas.
     let total_area: f64 = model.area.iter().sum();
@@ -268,7 +356,6 @@ pub fn e_step(
     let outlier_density = outlier_prior / volume;
     let gauss_norm = (2.0 * std::f64::consts::PI * sigma * sigma).powf(-1.5);
     let cos_limit = options.normal_angle.to_radians().cos();
-    let cutoff = options.cutoff_sigmas * sigma;
 
     // Per point: the best vertex of each patch found, its posterior.
     struct Chunk {
@@ -291,8 +378,20 @@ pub fn e_step(
                 let i = c * 1024 + j;
                 let ny = data.normals[i];
                 found.clear();
-                for (h, d2_hypothesis) in tree.nearest_within(y, options.max_candidates, cutoff) {
-                    let hyp = hypotheses[h];
+                let cut2 = cutoff * cutoff;
+                let from = cache.start[i] as usize;
+                let to = cache.start[i + 1] as usize;
+                for &h in &cache.candidates[from..to] {
+                    let h = h as usize;
+                    let d2_hypothesis = (y - now[h]).norm_squared();
+                    if d2_hypothesis > cut2 {
+                        continue;
+                    }
+                    let (vertex, l) = cache.keys[h];
+                    let hyp = Hypothesis {
+                        vertex,
+                        normal: pose.rotation[l as usize] * model.rest_normals[vertex as usize],
+                    };
                     let cos = ny.dot(&hyp.normal);
                     let compatible = if data.oriented {
                         cos >= cos_limit

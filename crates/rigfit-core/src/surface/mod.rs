@@ -14,7 +14,10 @@ pub mod model;
 pub mod patches;
 pub mod solve;
 
-pub use estep::{DataTermOptions, Observations, VertexTargets, e_step, estimate_normals};
+pub use estep::{
+    DataTermOptions, EStepCache, Observations, VertexTargets, e_step, e_step_cached,
+    estimate_normals,
+};
 pub use model::{PatchModel, PatchOptions, PatchPose};
 pub use solve::{PatchSystem, SolveError, StepWeights, gauss_newton_step};
 
@@ -203,6 +206,8 @@ pub struct SurfaceTracker {
     pub options: SurfaceOptions,
     /// The parameters of the frame before the last, for extrapolation.
     previous: Option<PatchPose>,
+    /// Candidate hypotheses kept between the E-steps of a frame.
+    cache: EStepCache,
 }
 
 impl SurfaceTracker {
@@ -216,6 +221,7 @@ impl SurfaceTracker {
             system,
             options: options.clone(),
             previous: None,
+            cache: EStepCache::default(),
         })
     }
 
@@ -227,6 +233,7 @@ impl SurfaceTracker {
     /// Fits the next frame, starting from the current parameters (the previous frame's).
     pub fn track(&mut self, data: &Observations) -> Result<FrameFit, SurfaceError> {
         data.check()?;
+        self.cache.clear();
         let last = self.pose.clone();
         if self.options.extrapolate
             && let Some(previous) = &self.previous
@@ -265,13 +272,14 @@ impl SurfaceTracker {
                 Some(c) if iteration < coarse_iterations => c,
                 _ => data,
             };
-            targets = e_step(
+            targets = e_step_cached(
                 &self.model,
                 &self.pose,
                 &positions,
                 data,
                 sigma,
                 &self.options.data,
+                &mut self.cache,
             );
             let total = targets.total_weight();
             if total <= 1e-9 {
