@@ -108,12 +108,14 @@ def draw_strokes(
     *,
     height: float | None = None,
     noise: float = 0.01,
+    min_chain_length: float = 0.1,
     drop_limbs: int = 0,
     stray_strokes: int = 0,
     seed: int = 0,
 ) -> tuple[list[Float2D], Int1D]:
-    """Ground-truth strokes through the skeleton in a pose: one per limb chain, with noise
-    (fraction of the height), some limbs dropped, strays added. Returns the strokes and the
+    """Ground-truth strokes through the skeleton in a pose: one per limb chain at least
+    ``min_chain_length`` long, with noise (lengths are fractions of the height), some limbs
+    dropped, strays added. Returns the strokes and the
     indices of the joints on drawn chains."""
 
 class Rig:

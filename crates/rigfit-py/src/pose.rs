@@ -154,12 +154,13 @@ pub fn solve_pose(
 }
 
 /// Draws ground-truth strokes through ``skeleton`` posed by ``rotations`` / ``translations``:
-/// one stroke per limb chain, sampled densely with Gaussian noise (``noise`` as a fraction of
-/// the height), ``drop_limbs`` limbs left undrawn and ``stray_strokes`` strays added; seeded.
+/// one stroke per limb chain at least ``min_chain_length`` long, sampled densely with Gaussian
+/// noise (``noise`` and lengths are fractions of the height), ``drop_limbs`` limbs left
+/// undrawn and ``stray_strokes`` strays added; seeded.
 /// Returns ``(strokes, drawn_joints)``: a list of (m, 3) arrays and the indices of the joints
 /// on drawn chains (the ones to measure a solve's error on).
 #[pyfunction]
-#[pyo3(signature = (skeleton, rotations=None, translations=None, *, height=None, noise=0.01, drop_limbs=0, stray_strokes=0, seed=0))]
+#[pyo3(signature = (skeleton, rotations=None, translations=None, *, height=None, noise=0.01, min_chain_length=0.1, drop_limbs=0, stray_strokes=0, seed=0))]
 pub fn draw_strokes<'py>(
     py: Python<'py>,
     skeleton: &PySkeleton,
@@ -167,14 +168,17 @@ pub fn draw_strokes<'py>(
     translations: Option<&Bound<'py, PyAny>>,
     height: Option<f64>,
     noise: f64,
+    min_chain_length: f64,
     drop_limbs: usize,
     stray_strokes: usize,
     seed: u64,
 ) -> PyResult<(Vec<Rows<'py>>, Bound<'py, PyArray1<i64>>)> {
-    if !(noise.is_finite() && noise >= 0.0) {
-        return Err(error(format!(
-            "noise: expected a fraction of the height >= 0, got {noise}"
-        )));
+    for (name, v) in [("noise", noise), ("min_chain_length", min_chain_length)] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(error(format!(
+                "{name}: expected a fraction of the height >= 0, got {v}"
+            )));
+        }
     }
     let truth = skeleton.pose(rotations, translations)?;
     let height = height.unwrap_or_else(|| skeleton.pose_height(&truth));
@@ -185,6 +189,7 @@ pub fn draw_strokes<'py>(
         height,
         &CaseOptions {
             noise,
+            min_chain_length,
             drop_limbs,
             stray_strokes,
             ..CaseOptions::default()
