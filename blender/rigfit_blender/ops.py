@@ -47,14 +47,33 @@ def stroke_point(context, event, depth: Vector | None = None) -> Vector | None:
     mouse position placed in the view plane through `depth` (the selected armature's centre)."""
     if event.type == "XR_ACTION" and getattr(event, "xr", None) is not None:
         return Vector(event.xr.controller_location)
-    region, rv3d = context.region, context.region_data
+    region, rv3d, coord = view_under_mouse(context, event)
     if region is None or rv3d is None:
         return None
     if depth is None:
         arm = target_armature(context)
         depth = arm.matrix_world.translation if arm is not None else context.scene.cursor.location
-    coord = (event.mouse_region_x, event.mouse_region_y)
     return view3d_utils.region_2d_to_location_3d(region, rv3d, coord, depth)
+
+
+def view_under_mouse(context, event):
+    """The 3D viewport region under the mouse, its view and the mouse in its coordinates.
+    The draw operator is often started from the sidebar, whose region is not the view."""
+    screen = getattr(context, "screen", None)
+    if screen is not None and hasattr(event, "mouse_x"):
+        for area in screen.areas:
+            if area.type != "VIEW_3D":
+                continue
+            for region in area.regions:
+                inside = (
+                    region.type == "WINDOW"
+                    and region.x <= event.mouse_x < region.x + region.width
+                    and region.y <= event.mouse_y < region.y + region.height
+                )
+                if inside:
+                    coord = (event.mouse_x - region.x, event.mouse_y - region.y)
+                    return region, area.spaces.active.region_3d, coord
+    return context.region, context.region_data, (event.mouse_region_x, event.mouse_region_y)
 
 
 def armature_centre(arm: bpy.types.Object) -> Vector:
