@@ -4,9 +4,9 @@
 # target/rigfit_blender.zip). Install it with Edit > Preferences > Get Extensions > Install
 # from Disk.
 set -euo pipefail
+wheel=$(realpath "${1:?usage: build-blender-extension.sh WHEEL [OUT.zip]}")
 cd "$(dirname "$0")/.."
-wheel=${1:?usage: build-blender-extension.sh WHEEL [OUT.zip]}
-out=${2:-target/rigfit_blender.zip}
+out=$(realpath -m "${2:-target/rigfit_blender.zip}")
 ext=blender/rigfit_blender
 name=$(basename "$wheel")
 grep -q "\"./wheels/$name\"" "$ext/blender_manifest.toml" \
