@@ -5,8 +5,8 @@
 # from Disk.
 set -euo pipefail
 wheel=$(realpath "${1:?usage: build-blender-extension.sh WHEEL [OUT.zip]}")
+out=$(realpath -m "${2:-$(dirname "$0")/../target/rigfit_blender.zip}")
 cd "$(dirname "$0")/.."
-out=$(realpath -m "${2:-target/rigfit_blender.zip}")
 ext=blender/rigfit_blender
 name=$(basename "$wheel")
 grep -q "\"./wheels/$name\"" "$ext/blender_manifest.toml" \
