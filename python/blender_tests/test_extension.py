@@ -360,3 +360,60 @@ def test_play_and_stop(addon):
     assert bpy.context.screen.is_animation_playing
     assert bpy.ops.rigfit.play() == {"FINISHED"}
     assert not bpy.context.screen.is_animation_playing
+
+
+class Layout:
+    """Records what a panel draws."""
+
+    def __init__(self):
+        self.labels, self.operators = [], []
+
+    def box(self):
+        return self
+
+    def column(self, **_):
+        return self
+
+    def row(self, **_):
+        return self
+
+    def label(self, text="", icon="NONE"):
+        self.labels.append((text, icon))
+
+    def prop_search(self, *args, **kwargs):
+        pass
+
+    def operator(self, idname, **_):
+        props = SimpleNamespace()
+        self.operators.append((idname, props))
+        return props
+
+
+def test_the_panel_shows_status_armature_frame_and_keyframe(addon):
+    empty_scene()
+    arm = import_character()
+    arm.animation_data.action = None
+    bpy.ops.rigfit.select_armature(name=arm.name)
+    feed_stroke([(0.0, 0.0, 0.0), (0.0, 0.0, 1.0)])
+
+    def draw():
+        panel = SimpleNamespace(layout=Layout())
+        addon.ui.RIGFIT_PT_panel.draw(panel, bpy.context)
+        return panel.layout
+
+    layout = draw()
+    texts = [t for t, _ in layout.labels]
+    assert "Status: Idle" in texts and f"Armature: {arm.name}" in texts
+    assert ("Frame 1: no keyframe", "KEYFRAME") in layout.labels and "Strokes: 1" in texts
+    ops_drawn = {idname for idname, _ in layout.operators}
+    assert ops_drawn == {
+        "rigfit.select_armature", "rigfit.move_armature", "rigfit.draw_stroke", "rigfit.delete_last_stroke",
+        "rigfit.delete_strokes", "rigfit.solve", "rigfit.reset_pose", "rigfit.insert_keyframe",
+        "rigfit.frame_step", "rigfit.play",
+    }
+    bpy.ops.rigfit.insert_keyframe()
+    bpy.context.scene.rigfit.status = "DRAWING"
+    layout = draw()
+    assert ("Frame 1: keyframe", "KEYFRAME_HLT") in layout.labels
+    assert "Status: Drawing" in [t for t, _ in layout.labels]
+    bpy.context.scene.rigfit.status = "IDLE"
