@@ -417,3 +417,57 @@ def test_the_panel_shows_status_armature_frame_and_keyframe(addon):
     assert ("Frame 1: keyframe", "KEYFRAME_HLT") in layout.labels
     assert "Status: Drawing" in [t for t, _ in layout.labels]
     bpy.context.scene.rigfit.status = "IDLE"
+
+
+def build_armature(name, roots):
+    """An armature made in edit mode: each root is a chain of (head, tail) bones."""
+    data = bpy.data.armatures.new(name)
+    obj = bpy.data.objects.new(name, data)
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode="EDIT")
+    for r, chain in enumerate(roots):
+        parent = None
+        for i, (head, tail) in enumerate(chain):
+            bone = data.edit_bones.new(f"{name}.{r}.{i}")
+            bone.head, bone.tail = head, tail
+            if parent is not None:
+                bone.parent, bone.use_connect = parent, True
+            parent = bone
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return obj
+
+
+def test_a_hand_built_armature_with_two_root_bones(addon):
+    """Two legs with no common parent bone: the solver moves them together through the
+    armature's helper joint, which the add-on folds back into the root bones."""
+    import rigfit
+
+    empty_scene()
+    arm = build_armature(
+        "Legs",
+        [
+            [((0.15, 0.0, 1.0), (0.15, 0.0, 0.5)), ((0.15, 0.0, 0.5), (0.15, 0.0, 0.05)), ((0.15, 0.0, 0.05), (0.15, -0.15, 0.0))],
+            [((-0.15, 0.0, 1.0), (-0.15, 0.0, 0.5)), ((-0.15, 0.0, 0.5), (-0.15, 0.0, 0.05)), ((-0.15, 0.0, 0.05), (-0.15, -0.15, 0.0))],
+        ],
+    )
+    arm.location = (0.5, 0.2, 0.0)
+    # The truth: one leg kicked forward, the other knee bent.
+    arm.pose.bones["Legs.0.0"].rotation_quaternion = (0.92, 0.38, 0.0, 0.0)
+    arm.pose.bones["Legs.1.1"].rotation_quaternion = (0.87, -0.5, 0.0, 0.0)
+    bpy.context.view_layer.update()
+    truth = addon.rig.bone_positions(arm)
+    skel = addon.rig.ArmatureSkeleton(arm)
+    rot, tr = skel.current_pose()
+    height = skel.skeleton.height(rot, tr)
+    strokes, drawn = rigfit.draw_strokes(skel.skeleton, rot, tr, height=height, seed=3)
+    assert len(strokes) == 2
+    bpy.ops.rigfit.select_armature(name=arm.name)
+    bpy.ops.rigfit.reset_pose()
+    for s in strokes:
+        feed_stroke(addon.rig.to_blender(s))
+    assert bpy.ops.rigfit.solve() == {"FINISHED"}
+    names = [skel.skeleton.names[i] for i in drawn if skel.skeleton.names[i] in truth]  # not the object
+    assert len(names) == 8  # three heads and a tail per leg
+    assert mean_error(addon, arm, truth, names, height) < 0.02
+    assert (arm.location - Vector((0.5, 0.2, 0.0))).length < 1e-9, "the object itself stays"
