@@ -25,3 +25,6 @@ cargo test --workspace --quiet 2>&1 | tee target/cargo-test.log
 # One closing line over every test binary (the last cargo line is the doc-tests' alone).
 awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($i ~ /^passed/) p += $(i-1); if ($i ~ /^failed/) f += $(i-1) } }
      END { printf "%d passed, %d failed\n", p, f; exit (f > 0 || p == 0) }' target/cargo-test.log
+
+echo "== python package and Blender extension"
+scripts/test-python.sh

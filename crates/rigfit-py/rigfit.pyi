@@ -1,0 +1,181 @@
+"""rigfit: pose rigged characters from 3D strokes and track articulated bodies.
+
+Arrays go in as anything numpy can read as float64 and come out as numpy arrays.
+Joints keep the order they were given in. Quaternions are ``[x, y, z, w]``. rigfit's
+solvers assume y is up (the glTF and BVH convention). Every error is a ``RigfitError``
+(a ``ValueError``) with one line naming the argument and the problem.
+"""
+
+from collections.abc import Sequence
+from os import PathLike
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+ArrayLike = npt.ArrayLike
+Float2D = npt.NDArray[np.float64]
+Int1D = npt.NDArray[np.int64]
+
+class RigfitError(ValueError):
+    """Bad input, or a problem rigfit cannot solve; the message says which and why."""
+
+class Skeleton:
+    """A joint tree: names, parents and rest (bind) transforms relative to the parent."""
+
+    def __init__(
+        self,
+        names: Sequence[str],
+        parents: Sequence[int | None],
+        rest_translations: ArrayLike,
+        rest_rotations: ArrayLike,
+        rest_scales: ArrayLike | None = None,
+        end_sites: Sequence[bool] | None = None,
+        helpers: Sequence[bool] | None = None,
+    ) -> None:
+        """``parents[i]``: index of joint i's parent, -1 or None for a root (any order).
+        ``rest_translations`` (n, 3), ``rest_rotations`` (n, 4), ``rest_scales`` (n, 3,
+        default ones). ``end_sites[i]``: a fixed tip with no joint below (a bone's tail).
+        ``helpers[i]``: a node that carries a transform but is not part of the character."""
+    def __len__(self) -> int: ...
+    @property
+    def names(self) -> list[str]: ...
+    @property
+    def parents(self) -> Int1D:
+        """Parent index of each joint, -1 for a root."""
+    @property
+    def end_sites(self) -> list[bool]:
+        """Per joint, whether it is a fixed tip (a BVH End Site, a bone's tail)."""
+    @property
+    def helpers(self) -> list[bool]:
+        """Per joint, whether it is a helper node (not part of the character, not posed)."""
+    @property
+    def rest_rotations(self) -> Float2D: ...
+    @property
+    def rest_translations(self) -> Float2D: ...
+    def index(self, name: str) -> int:
+        """Index of the joint called ``name``; ``RigfitError`` if there is none."""
+    def joint_positions(
+        self, rotations: ArrayLike | None = None, translations: ArrayLike | None = None
+    ) -> Float2D:
+        """World positions (n, 3) for local rotations (n, 4) / translations (n, 3)."""
+    def world_matrices(
+        self, rotations: ArrayLike | None = None, translations: ArrayLike | None = None
+    ) -> npt.NDArray[np.float64]:
+        """World matrices (n, 4, 4) for a pose."""
+    def height(
+        self, rotations: ArrayLike | None = None, translations: ArrayLike | None = None
+    ) -> float:
+        """The y extent of the joints (the largest extent when that is zero)."""
+
+class PoseResult:
+    """What ``solve_pose`` found, in the skeleton's joint order."""
+
+    rotations: Float2D
+    """Local rotations (n, 4)."""
+    translations: Float2D
+    """Local translations (n, 3)."""
+    positions: Float2D
+    """World positions (n, 3) after posing."""
+    stroke_bones: list[list[str]]
+    """Per stroke, the bones it was matched to along the stroke; empty for a stray."""
+    iterations: int
+    energy: float
+    seconds: float
+
+def solve_pose(
+    skeleton: Skeleton,
+    strokes: Sequence[ArrayLike],
+    rotations: ArrayLike | None = None,
+    translations: ArrayLike | None = None,
+    *,
+    bones: Sequence[str] | None = None,
+    stroke_bones: Sequence[Sequence[str] | None] | None = None,
+    height: float | None = None,
+    method: Literal["rigfit", "paper"] = "rigfit",
+) -> PoseResult:
+    """Poses ``skeleton`` so its bones lie along 3D ``strokes`` ((m, 3) polylines in its
+    world space), starting from local ``rotations`` / ``translations`` (rest by default).
+    ``bones``: the joints that may move. ``stroke_bones[i]``: pins stroke i to bones.
+    ``height``: the character's size (default: its joints' y extent)."""
+
+def draw_strokes(
+    skeleton: Skeleton,
+    rotations: ArrayLike | None = None,
+    translations: ArrayLike | None = None,
+    *,
+    height: float | None = None,
+    noise: float = 0.01,
+    min_chain_length: float = 0.1,
+    drop_limbs: int = 0,
+    stray_strokes: int = 0,
+    seed: int = 0,
+) -> tuple[list[Float2D], Int1D]:
+    """Ground-truth strokes through the skeleton in a pose: one per limb chain at least
+    ``min_chain_length`` long, with noise (lengths are fractions of the height), some limbs
+    dropped, strays added. Returns the strokes and the
+    indices of the joints on drawn chains."""
+
+class Rig:
+    """A rigged character read from a file."""
+
+    @property
+    def skeleton(self) -> Skeleton: ...
+    @property
+    def rotations(self) -> Float2D:
+        """Local rotations (n, 4) of the stored pose."""
+    @property
+    def translations(self) -> Float2D:
+        """Local translations (n, 3) of the stored pose."""
+    @property
+    def height(self) -> float:
+        """Vertical extent of the skinned mesh (or of the joints)."""
+    @property
+    def animations(self) -> list[str]: ...
+    def animation_range(self, animation: int = 0) -> tuple[float, float]:
+        """(start, end) in seconds."""
+    def frame_time(self, animation: int = 0) -> float | None: ...
+    def sample(self, time: float, animation: int = 0) -> tuple[Float2D, Float2D]:
+        """(rotations, translations) of an animation at ``time`` seconds."""
+
+def load_rig(
+    path: str | PathLike[str],
+    *,
+    skin: str | None = None,
+    start_frame: int | Literal["rest"] | None = None,
+) -> Rig:
+    """Reads a ``.glb`` / ``.gltf`` (with a skin) or ``.bvh`` rig."""
+
+class FrameFit:
+    """What tracking one frame found, in the skeleton's joint order."""
+
+    rotations: Float2D
+    translations: Float2D
+    positions: Float2D
+    inlier: list[bool]
+    inliers: int
+    em_iterations: int
+
+class Tracker:
+    """Articulated tracking (Dewaele et al. 2006) through point clouds, frame by frame."""
+
+    def __init__(
+        self,
+        model: Rig | Skeleton,
+        rotations: ArrayLike | None = None,
+        translations: ArrayLike | None = None,
+        *,
+        noise: float = 0.01,
+        max_motion: float = 0.04,
+        method: Literal["rigfit", "paper"] = "rigfit",
+    ) -> None:
+        """From a ``Rig`` (its skinned mesh) or a ``Skeleton`` and a start pose close to the
+        first frame. ``noise`` / ``max_motion``: fractions of the height."""
+    def track(self, points: ArrayLike) -> FrameFit:
+        """Aligns the model to one frame's points (m, 3)."""
+    def positions(self) -> Float2D:
+        """Joint world positions (n, 3) in the current pose."""
+    def surface_points(self) -> Float2D:
+        """Model surface points (k, 3) in the current pose."""
