@@ -1,5 +1,7 @@
 //! Triangle meshes, point clouds and bounding boxes.
 
+use rand::Rng;
+
 use crate::math::{Point3, Vector3};
 
 /// A triangle mesh or, with no triangles, a point cloud.
@@ -78,4 +80,40 @@ impl Aabb {
     pub fn center(&self) -> Point3 {
         nalgebra::center(&self.min, &self.max)
     }
+}
+
+/// `count` points spread over the triangles `triangles` of `vertices` uniformly by area,
+/// each with the index of its triangle. Empty when the mesh has no area.
+pub fn sample_triangles(
+    vertices: &[Point3],
+    triangles: &[[u32; 3]],
+    count: usize,
+    rng: &mut impl Rng,
+) -> Vec<(Point3, usize)> {
+    let mut cumulative = Vec::with_capacity(triangles.len());
+    let mut total = 0.0;
+    for t in triangles {
+        let [a, b, c] = t.map(|i| vertices[i as usize]);
+        let area = 0.5 * (b - a).cross(&(c - a)).norm();
+        total += if area.is_finite() { area } else { 0.0 };
+        cumulative.push(total);
+    }
+    if total <= 0.0 {
+        return Vec::new();
+    }
+    (0..count)
+        .map(|_| {
+            let r = rng.random_range(0.0..total);
+            let t = cumulative
+                .partition_point(|&c| c < r)
+                .min(triangles.len() - 1);
+            let [a, b, c] = triangles[t].map(|i| vertices[i as usize]);
+            let (mut u, mut v) = (rng.random::<f64>(), rng.random::<f64>());
+            if u + v > 1.0 {
+                u = 1.0 - u;
+                v = 1.0 - v;
+            }
+            (a + (b - a) * u + (c - a) * v, t)
+        })
+        .collect()
 }

@@ -118,38 +118,17 @@ pub fn sample_surface(
     count: usize,
     rng: &mut impl Rng,
 ) -> (Vec<Point3>, Vec<Vector3>) {
-    let mut cumulative = Vec::with_capacity(triangles.len());
-    let mut total = 0.0;
-    for t in triangles {
-        let [a, b, c] = t.map(|i| vertices[i as usize]);
-        total += 0.5 * (b - a).cross(&(c - a)).norm();
-        cumulative.push(total);
-    }
-    let mut points = Vec::with_capacity(count);
-    let mut normals = Vec::with_capacity(count);
-    if total <= 0.0 {
-        return (points, normals);
-    }
-    for _ in 0..count {
-        let r = rng.random_range(0.0..total);
-        let t = cumulative
-            .partition_point(|&c| c < r)
-            .min(triangles.len() - 1);
-        let [a, b, c] = triangles[t].map(|i| vertices[i as usize]);
-        let (mut u, mut v) = (rng.random::<f64>(), rng.random::<f64>());
-        if u + v > 1.0 {
-            u = 1.0 - u;
-            v = 1.0 - v;
-        }
-        points.push(a + (b - a) * u + (c - a) * v);
-        normals.push(
-            (b - a)
+    crate::geometry::sample_triangles(vertices, triangles, count, rng)
+        .into_iter()
+        .map(|(p, t)| {
+            let [a, b, c] = triangles[t].map(|i| vertices[i as usize]);
+            let normal = (b - a)
                 .cross(&(c - a))
                 .try_normalize(1e-300)
-                .unwrap_or_else(Vector3::y),
-        );
-    }
-    (points, normals)
+                .unwrap_or_else(Vector3::y);
+            (p, normal)
+        })
+        .unzip()
 }
 
 /// Draws a sequence of `rig`'s animation `animation` (the rig's stored pose if it has none).

@@ -3,8 +3,7 @@
 //! parts it lies between, weighted by their fields raised to the power `a` (eq. 3), so the
 //! skin stretches and compresses as the surface bends.
 
-use rand::Rng;
-
+pub use crate::geometry::sample_triangles;
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Point3, Vector3, linear_part, transform_point};
 use crate::track::parts::{PartModel, PlacedParts, ellipsoid_distance};
@@ -169,41 +168,6 @@ impl TexturePoint {
             }
         });
     }
-}
-
-/// `count` points spread over the triangles `triangles` of `vertices` uniformly by area.
-pub fn sample_triangles(
-    vertices: &[Point3],
-    triangles: &[[u32; 3]],
-    count: usize,
-    rng: &mut impl Rng,
-) -> Vec<(Point3, usize)> {
-    let mut cumulative = Vec::with_capacity(triangles.len());
-    let mut total = 0.0;
-    for t in triangles {
-        let [a, b, c] = t.map(|i| vertices[i as usize]);
-        let area = 0.5 * (b - a).cross(&(c - a)).norm();
-        total += if area.is_finite() { area } else { 0.0 };
-        cumulative.push(total);
-    }
-    if total <= 0.0 {
-        return Vec::new();
-    }
-    (0..count)
-        .map(|_| {
-            let r = rng.random::<f64>() * total;
-            let t = cumulative
-                .partition_point(|&c| c < r)
-                .min(triangles.len() - 1);
-            let [a, b, c] = triangles[t].map(|i| vertices[i as usize]);
-            let (mut u, mut v) = (rng.random::<f64>(), rng.random::<f64>());
-            if u + v > 1.0 {
-                u = 1.0 - u;
-                v = 1.0 - v;
-            }
-            (a + (b - a) * u + (c - a) * v, t)
-        })
-        .collect()
 }
 
 #[cfg(test)]
