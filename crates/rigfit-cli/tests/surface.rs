@@ -323,12 +323,35 @@ fn obj_frames_and_obj_references_are_read() {
 #[test]
 fn render_draws_a_contact_sheet_and_rejects_a_bad_picture_path() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let (reference, frames, _) = write_scene(dir.path(), 3);
+    let (reference, frames, truths) = write_scene(dir.path(), 3);
     let out = dir.path().join("out");
     let picture = dir.path().join("sheet.png");
+    // The true vertex positions, for the picture's error plot.
+    let truth_files: Vec<PathBuf> = truths
+        .iter()
+        .enumerate()
+        .map(|(f, t)| {
+            let path = dir.path().join(format!("truth_{f:04}.ply"));
+            let mesh = TriMesh {
+                vertices: t.clone(),
+                ..TriMesh::default()
+            };
+            write_ply(&path, &mesh).expect("truth");
+            path
+        })
+        .collect();
+    let truth_list: Vec<&str> = truth_files.iter().map(|p| s(p)).collect();
+    let truth_arg = truth_list.join(",");
     let mut args = vec!["surface", s(&reference)];
     args.extend(frames.iter().map(|f| s(f)));
-    args.extend(["-o", s(&out), "--render", s(&picture)]);
+    args.extend([
+        "-o",
+        s(&out),
+        "--render",
+        s(&picture),
+        "--truth",
+        &truth_arg,
+    ]);
     let o = rigfit(&args);
     assert!(o.status.success(), "{}", stderr(&o));
     let png = std::fs::read(&picture).expect("picture written");

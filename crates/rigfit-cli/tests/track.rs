@@ -70,6 +70,18 @@ fn tracks_a_hand_through_ply_frames_and_writes_glb_bvh_report_and_picture() {
     let out = dir.path().join("track.glb");
     let report = dir.path().join("track.json");
     let picture = dir.path().join("track.png");
+    // Ground truth for the picture's error plot, as a track report.
+    let truth = dir.path().join("truth.json");
+    let frames_json: Vec<serde_json::Value> = suite
+        .frames
+        .iter()
+        .map(|f| rigfit_formats::report::track_frame_json(&suite.rig, &f.truth, "", 0, 0.0))
+        .collect();
+    std::fs::write(
+        &truth,
+        serde_json::json!({ "frames": frames_json }).to_string(),
+    )
+    .expect("truth");
     let o = rigfit(&args(
         &["track", start.to_str().expect("utf-8")],
         &files,
@@ -80,6 +92,8 @@ fn tracks_a_hand_through_ply_frames_and_writes_glb_bvh_report_and_picture() {
             report.to_str().expect("utf-8"),
             "--render",
             picture.to_str().expect("utf-8"),
+            "--truth",
+            truth.to_str().expect("utf-8"),
         ],
     ));
     assert!(o.status.success(), "{}", stderr(&o));
@@ -202,6 +216,17 @@ fn bad_frames_stop_with_one_line_and_keep_what_was_tracked() {
     let txt = dir.path().join("frame.txt");
     std::fs::write(&txt, "1 2 3").expect("write");
     let o = rigfit(&["track", &start_s, txt.to_str().expect("utf-8")]);
+    assert_bad_input(&o, &txt);
+    // A truth file that is not a track report.
+    let o = rigfit(&[
+        "track",
+        &start_s,
+        files[0].to_str().expect("utf-8"),
+        "--render",
+        dir.path().join("x.png").to_str().expect("utf-8"),
+        "--truth",
+        txt.to_str().expect("utf-8"),
+    ]);
     assert_bad_input(&o, &txt);
     let missing = dir.path().join("missing.glb");
     let o = rigfit(&[

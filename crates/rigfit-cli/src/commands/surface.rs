@@ -45,6 +45,11 @@ pub struct SurfaceArgs {
     /// frame's points) with inliers and time per frame, as a .png.
     #[arg(long)]
     pub render: Option<PathBuf>,
+    /// Ground truth for the picture's error plot: the true vertex positions per frame, in
+    /// the reference's order (.ply or .obj; `surface_sequence` writes `truth_NNNN.ply`),
+    /// one file per frame, comma-separated.
+    #[arg(long, requires = "render", value_delimiter = ',')]
+    pub truth: Option<Vec<PathBuf>>,
     #[command(flatten)]
     pub picture: super::render::PictureArgs,
 }
@@ -189,9 +194,38 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
                 (format!("frame {i}"), scene)
             })
             .collect();
+        // Per frame, the mean vertex distance to the truth, % of the reference's diagonal.
+        let diagonal = reference.bounds().map_or(1.0, |b| b.diagonal()).max(1e-12);
+        let error = match &args.truth {
+            Some(files) => Some(
+                files
+                    .iter()
+                    .zip(&results)
+                    .map(|(file, r)| {
+                        let truth = read_mesh(file)?;
+                        if truth.vertices.len() != r.1.positions.len() {
+                            return Err(anyhow!(
+                                "{}: {} vertices, the reference has {}",
+                                file.display(),
+                                truth.vertices.len(),
+                                r.1.positions.len()
+                            ));
+                        }
+                        let sum: f64 = truth
+                            .vertices
+                            .iter()
+                            .zip(&r.1.positions)
+                            .map(|(a, b)| (a - b).norm())
+                            .sum();
+                        Ok(100.0 * sum / truth.vertices.len().max(1) as f64 / diagonal)
+                    })
+                    .collect::<anyhow::Result<Vec<f64>>>()?,
+            ),
+            None => None,
+        };
         let stats = rigfit_render::FrameStats {
-            error: None,
-            error_label: String::new(),
+            error,
+            error_label: "mean vertex error (% of diagonal)".into(),
             inliers: results.iter().map(|r| r.1.inliers as f64).collect(),
             seconds: results.iter().map(|r| r.2).collect(),
         };

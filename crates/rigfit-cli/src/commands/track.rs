@@ -59,8 +59,50 @@ pub struct TrackArgs {
     /// in another colour) with inliers and time per frame, as a .png.
     #[arg(long)]
     pub render: Option<PathBuf>,
+    /// Ground truth for the picture's error plot: a track report (`frames[k].joints` with
+    /// `name` and `position`), frame k against tracked frame k.
+    #[arg(long, requires = "render")]
+    pub truth: Option<PathBuf>,
     #[command(flatten)]
     pub picture: super::render::PictureArgs,
+}
+
+/// Reads a track report as ground truth: per frame, joint name to position.
+fn read_truth(path: &Path) -> anyhow::Result<Vec<std::collections::HashMap<String, Point3>>> {
+    let bytes = rigfit_formats::error::read_bytes(path)?;
+    let value: serde_json::Value =
+        serde_json::from_slice(&bytes).map_err(|e| anyhow!("{}: not JSON: {e}", path.display()))?;
+    let frames = value["frames"]
+        .as_array()
+        .ok_or_else(|| anyhow!("{}: frames: expected an array", path.display()))?;
+    frames
+        .iter()
+        .enumerate()
+        .map(|(k, frame)| {
+            let joints = frame["joints"].as_array().ok_or_else(|| {
+                anyhow!("{}: frames[{k}].joints: expected an array", path.display())
+            })?;
+            joints
+                .iter()
+                .enumerate()
+                .map(|(j, joint)| {
+                    let bad = || {
+                        anyhow!(
+                            "{}: frames[{k}].joints[{j}]: expected a name and a position [x, y, z]",
+                            path.display()
+                        )
+                    };
+                    let name = joint["name"].as_str().ok_or_else(bad)?.to_string();
+                    let p = joint["position"].as_array().ok_or_else(bad)?;
+                    let c: Vec<f64> = p.iter().filter_map(serde_json::Value::as_f64).collect();
+                    if c.len() != 3 || !c.iter().all(|x| x.is_finite()) {
+                        return Err(bad());
+                    }
+                    Ok((name, Point3::new(c[0], c[1], c[2])))
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// Reads one frame's points (vertices of a .ply / .obj cloud or mesh).
@@ -103,6 +145,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         skin: args.skin.clone(),
         start_frame: super::pose::start_frame(args.start_frame.as_deref())?,
     };
+    let truth = args.truth.as_deref().map(read_truth).transpose()?;
     let rig_file = read_rig(&args.rig, &rig_options)?;
     let rig = &rig_file.rig;
     let mut options = match args.method {
@@ -175,7 +218,14 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
                 .with_context(|| "writing the report")?;
         }
         if let Some(picture) = &args.render {
-            let image = sheet(&tracker, &tracked, &shown_clouds, &args.picture, rig);
+            let image = sheet(
+                &tracker,
+                &tracked,
+                &shown_clouds,
+                &args.picture,
+                rig,
+                truth.as_deref(),
+            );
             super::render::write_png(picture, &image)?;
         }
         let total: f64 = tracked.iter().map(|t| t.seconds).sum();
@@ -205,7 +255,31 @@ fn sheet(
     clouds: &[(usize, Vec<Point3>)],
     picture: &super::render::PictureArgs,
     rig: &rigfit_core::Rig,
+    truth: Option<&[std::collections::HashMap<String, Point3>]>,
 ) -> rigfit_render::Image {
+    // Per frame, the mean distance over the joints the truth names, % of the height.
+    let height = rig.height().max(1e-12);
+    let error = truth.map(|truth| {
+        tracked
+            .iter()
+            .zip(truth)
+            .map(|(t, frame)| {
+                let positions = rig.skeleton.joint_positions(&t.fit.pose);
+                let (sum, n) = rig
+                    .reported_joints()
+                    .filter_map(|j| {
+                        let name = &rig.skeleton.joint(j).name;
+                        frame.get(name).map(|p| (positions[j] - p).norm())
+                    })
+                    .fold((0.0, 0usize), |(s, n), d| (s + d, n + 1));
+                if n == 0 {
+                    f64::NAN
+                } else {
+                    100.0 * sum / n as f64 / height
+                }
+            })
+            .collect()
+    });
     let skeleton = &tracker.model().skeleton;
     let frames: Vec<(String, rigfit_render::Scene)> = clouds
         .iter()
@@ -218,8 +292,8 @@ fn sheet(
         })
         .collect();
     let stats = rigfit_render::FrameStats {
-        error: None,
-        error_label: String::new(),
+        error,
+        error_label: "mean joint error (% of height)".into(),
         inliers: tracked.iter().map(|t| t.fit.inliers as f64).collect(),
         seconds: tracked.iter().map(|t| t.seconds).collect(),
     };
