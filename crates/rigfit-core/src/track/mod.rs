@@ -141,8 +141,11 @@ pub struct ArticulatedModel {
     pub skeleton: Skeleton,
     pub parts: PartModel,
     pub height: f64,
-    /// The pose the model was built in.
+    /// The pose tracking starts from (the rig's stored pose).
     pub start: Pose,
+    /// The pose the parts were fitted and the texture sampled in (the bind pose of a
+    /// skinned character, else the stored pose).
+    pub built: Pose,
     /// Points on the model's surface in the start pose (world), with their normals when
     /// known (else the fused surface's gradient is used).
     pub surface_samples: Vec<Point3>,
@@ -161,17 +164,24 @@ impl ArticulatedModel {
             .iter()
             .any(|m| !m.positions.is_empty() && !m.triangles.is_empty());
         let mut rng = rand::rngs::StdRng::seed_from_u64(0x7ac4);
-        let parts = if has_mesh {
-            PartModel::fit_to_skin(&rig.skeleton, &rig.pose, &rig.meshes, height)
+        // A skinned character is modelled in its bind pose (limbs apart, as it was
+        // modelled); a bare skeleton in its stored pose.
+        let built = if has_mesh {
+            bind_pose(rig)
         } else {
-            PartModel::from_bone_lengths(&rig.skeleton, &rig.pose, height)
+            rig.pose.clone()
+        };
+        let parts = if has_mesh {
+            PartModel::fit_to_skin(&rig.skeleton, &built, &rig.meshes, height)
+        } else {
+            PartModel::from_bone_lengths(&rig.skeleton, &built, height)
         };
         if parts.parts.is_empty() {
             return Err(TrackError::NoParts);
         }
-        let fk = ForwardKinematics::new(&rig.skeleton, &rig.pose);
+        let fk = ForwardKinematics::new(&rig.skeleton, &built);
         let (surface_samples, surface_normals) = if has_mesh {
-            let world = rig.skeleton.world_matrices(&rig.pose);
+            let world = rig.skeleton.world_matrices(&built);
             let mut vertices = Vec::new();
             let mut triangles = Vec::new();
             for mesh in &rig.meshes {
@@ -211,6 +221,7 @@ impl ArticulatedModel {
             parts,
             height,
             start: rig.pose.clone(),
+            built,
             surface_samples,
             surface_normals,
         })
@@ -293,7 +304,7 @@ impl Tracker {
             return Err(TrackError::NothingMoves);
         }
         let pose = model.start.clone();
-        let fk = ForwardKinematics::new(&model.skeleton, &pose);
+        let fk = ForwardKinematics::new(&model.skeleton, &model.built);
         let mut placed = PlacedParts::default();
         model.parts.place(&fk, &mut placed);
         let texture: Vec<TexturePoint> = model
@@ -814,6 +825,35 @@ fn extrapolate(previous: &Pose, current: &Pose, gain: f64) -> Pose {
         n.rotation = Quat::new_normalize((c.rotation * Quat::from_scaled_axis(step)).into_inner());
     }
     next
+}
+
+/// The pose in which a skinned rig's meshes were bound: every skin joint's world transform
+/// is the inverse of its inverse bind matrix (of the first mesh that uses it); other joints
+/// keep their stored local transforms.
+pub fn bind_pose(rig: &Rig) -> Pose {
+    let skeleton = &rig.skeleton;
+    let stored = &rig.pose;
+    let mut world: Vec<crate::math::Matrix4> = Vec::with_capacity(skeleton.len());
+    for (j, joint) in skeleton.joints().iter().enumerate() {
+        let from_bind = rig
+            .meshes
+            .iter()
+            .filter(|m| m.joints.iter().any(|js| js.contains(&(j as u32))))
+            .find_map(|m| m.inverse_bind.get(j).and_then(|ib| ib.try_inverse()));
+        let local = stored.local[j].to_matrix();
+        let w = match (from_bind, joint.parent) {
+            (Some(w), _) => w,
+            (None, Some(p)) => world[p] * local,
+            (None, None) => local,
+        };
+        world.push(w);
+    }
+    let pose = skeleton.pose_from_world(&world);
+    let finite = pose.local.iter().all(|t| {
+        t.translation.iter().all(|c| c.is_finite())
+            && t.scale.iter().all(|c| c.is_finite() && *c != 0.0)
+    });
+    if finite { pose } else { stored.clone() }
 }
 
 /// Texture points for a surface: `requested`, or with 0 one per `(2% of the height)^2`
