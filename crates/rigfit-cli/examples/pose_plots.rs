@@ -5,19 +5,23 @@
 //!
 //! `cargo run --release -p rigfit-cli --example pose_plots [OUT_DIR]` (default docs/img)
 
+#[path = "common/plot_file.rs"]
+mod plot_file;
+
 #[path = "../tests/common/pose_suites.rs"]
 mod pose_suites;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
+use plot_file::write;
 use rand::SeedableRng;
 use rigfit_core::pose::beautify::resample;
 use rigfit_core::pose::cases::{CaseOptions, make_case};
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
 use rigfit_core::{Pose, Rig, Stroke};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
-use rigfit_render::{Chart, Image, Series, line_chart};
+use rigfit_render::{Chart, Series, line_chart};
 
 fn methods() -> [(&'static str, PoseOptions); 2] {
     [
@@ -61,13 +65,6 @@ fn draw_strokes(rig: &Rig, truth: &Pose, count: usize, points: usize) -> Vec<Str
         s.points.truncate(points);
     }
     strokes
-}
-
-fn write(image: &Image, dir: &Path, name: &str) {
-    let path = dir.join(name);
-    let bytes = image.png().expect("PNG encoding");
-    rigfit_formats::error::write_atomic(&path, &bytes).expect("writing the plot");
-    println!("wrote {}", path.display());
 }
 
 fn main() {

@@ -7,9 +7,13 @@
 //! `scripts/bench-surface-scaling.sh > target/surface-scaling.tsv`
 //! `cargo run --release -p rigfit-cli --example surface_plots -- docs/img target/surface-scaling.tsv`
 
+#[path = "common/plot_file.rs"]
+mod plot_file;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use plot_file::write;
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rigfit_core::surface::cases::{
@@ -17,14 +21,7 @@ use rigfit_core::surface::cases::{
 };
 use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
-use rigfit_render::{Chart, Image, Series, line_chart};
-
-fn write(image: &Image, dir: &Path, name: &str) {
-    let path = dir.join(name);
-    let bytes = image.png().expect("PNG encoding");
-    rigfit_formats::error::write_atomic(&path, &bytes).expect("writing the plot");
-    println!("wrote {}", path.display());
-}
+use rigfit_render::{Chart, Series, line_chart};
 
 /// Mean and p95 per-vertex error (% of the diagonal) of tracking a fresh sequence.
 fn error(

@@ -6,24 +6,21 @@
 //!
 //! `cargo run --release -p rigfit-cli --example track_plots [OUT_DIR]` (default docs/img)
 
+#[path = "common/plot_file.rs"]
+mod plot_file;
+
 #[path = "../tests/common/track_suites.rs"]
 mod track_suites;
 
 use std::path::{Path, PathBuf};
 
+use plot_file::write;
 use rigfit_core::track::TrackOptions;
 use rigfit_core::track::cases::SequenceOptions;
-use rigfit_render::{Chart, Image, Series, line_chart};
+use rigfit_render::{Chart, Series, line_chart};
 
 const FRAMES: usize = track_suites::FRAMES;
 const SUITES: [&str; 2] = ["hand", "BCN_Epileptic"];
-
-fn write(image: &Image, dir: &Path, name: &str) {
-    let path = dir.join(name);
-    let bytes = image.png().expect("PNG encoding");
-    rigfit_formats::error::write_atomic(&path, &bytes).expect("writing the plot");
-    println!("wrote {}", path.display());
-}
 
 /// Mean over the suites of each sequence's mean joint error (% of the height), and the
 /// worst frame.

@@ -107,11 +107,8 @@ fn add_file(scene: &mut Scene, path: &Path, rig_options: &RigOptions) -> anyhow:
             let file = read_rig(path, rig_options)?;
             scene.add_rig(&file.rig, &file.rig.pose);
         }
-        "ply" => {
-            scene.add_mesh(&rigfit_formats::ply::read_ply(path)?);
-        }
-        "obj" => {
-            scene.add_mesh(&rigfit_formats::obj::read_obj(path)?);
+        "ply" | "obj" => {
+            scene.add_mesh(&super::read_mesh(path)?);
         }
         "json" => {
             let strokes = rigfit_formats::strokes::read_strokes(path)?;

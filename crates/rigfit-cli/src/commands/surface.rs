@@ -1,7 +1,6 @@
 //! `rigfit surface MESH FRAME... -o OUTDIR`: track a reference mesh through a sequence of
 //! point clouds or meshes (Cagniart et al. 2010), writing the moved reference per frame.
 
-use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -10,8 +9,7 @@ use rigfit_core::TriMesh;
 use rigfit_core::surface::cases::skinned_surface;
 use rigfit_core::surface::{Observations, SurfaceError, SurfaceOptions, SurfaceTracker};
 use rigfit_formats::error::{extension, write_atomic};
-use rigfit_formats::obj::read_obj;
-use rigfit_formats::ply::{ply_bytes, read_ply};
+use rigfit_formats::ply::ply_bytes;
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 use serde_json::json;
 
@@ -54,21 +52,6 @@ pub struct SurfaceArgs {
     pub picture: super::render::PictureArgs,
 }
 
-/// Reads a mesh or point cloud by extension.
-fn read_mesh(path: &Path) -> anyhow::Result<TriMesh> {
-    Ok(match extension(path).as_str() {
-        "ply" => read_ply(path)?,
-        "obj" => read_obj(path)?,
-        _ => {
-            return Err(rigfit_formats::FormatError::Unsupported {
-                path: path.to_path_buf(),
-                expected: "a mesh or point cloud: .ply or .obj".into(),
-            }
-            .into());
-        }
-    })
-}
-
 /// The reference: a mesh file, or the skinned meshes of a rig in its stored pose.
 fn read_reference(path: &Path) -> anyhow::Result<TriMesh> {
     match extension(path).as_str() {
@@ -79,7 +62,7 @@ fn read_reference(path: &Path) -> anyhow::Result<TriMesh> {
             }
             Ok(skinned_surface(&file.rig, &file.rig.pose))
         }
-        "ply" | "obj" => read_mesh(path),
+        "ply" | "obj" => super::read_mesh(path),
         _ => Err(rigfit_formats::FormatError::Unsupported {
             path: path.to_path_buf(),
             expected: "a reference mesh: .ply, .obj, .glb or .gltf".into(),
@@ -90,32 +73,6 @@ fn read_reference(path: &Path) -> anyhow::Result<TriMesh> {
 
 fn named(path: &Path, e: SurfaceError) -> anyhow::Error {
     anyhow!("{}: {e}", path.display())
-}
-
-/// A one-line progress bar on stderr, only when stderr is a terminal.
-struct Progress {
-    total: usize,
-    enabled: bool,
-}
-
-impl Progress {
-    fn show(&self, done: usize, ms: f64) {
-        if !self.enabled {
-            return;
-        }
-        let width = 30;
-        let filled = done * width / self.total.max(1);
-        eprint!(
-            "\r[{}{}] {done}/{} frames ({ms:.0} ms/frame)",
-            "#".repeat(filled),
-            " ".repeat(width - filled),
-            self.total
-        );
-        if done == self.total {
-            eprintln!();
-        }
-        let _ = std::io::stderr().flush();
-    }
 }
 
 pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
@@ -139,17 +96,19 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
     }
     let mut tracker =
         SurfaceTracker::new(&reference, &options).map_err(|e| named(&args.mesh, e))?;
-    let progress = Progress {
-        total: args.frames.len(),
-        enabled: std::io::stderr().is_terminal(),
-    };
+    // A progress bar on stderr (indicatif hides it when stderr is not a terminal).
+    let progress = indicatif::ProgressBar::new(args.frames.len() as u64);
+    progress.set_style(
+        indicatif::ProgressStyle::with_template("tracking {bar:30} {pos}/{len} frames {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
     // Every frame is solved before anything is written: a bad frame leaves no output.
     let mut results = Vec::with_capacity(args.frames.len());
     let mut total_seconds = 0.0;
     let shown = rigfit_render::pick_frames(args.frames.len(), 8);
     let mut shown_points = Vec::new();
     for (i, path) in args.frames.iter().enumerate() {
-        let frame = read_mesh(path)?;
+        let frame = super::read_mesh(path)?;
         if args.render.is_some() && shown.contains(&i) {
             shown_points.push((i, frame.vertices.clone()));
         }
@@ -158,9 +117,14 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
         let fit = tracker.track(&observations).map_err(|e| named(path, e))?;
         let seconds = t0.elapsed().as_secs_f64();
         total_seconds += seconds;
-        progress.show(i + 1, total_seconds / (i + 1) as f64 * 1000.0);
+        progress.set_message(format!(
+            "({:.0} ms/frame)",
+            total_seconds / (i + 1) as f64 * 1000.0
+        ));
+        progress.inc(1);
         results.push((path, fit, seconds));
     }
+    progress.finish_and_clear();
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("{}: cannot create the folder", args.output.display()))?;
     let mut frames_json = Vec::with_capacity(results.len());
@@ -202,7 +166,7 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
                     .iter()
                     .zip(&results)
                     .map(|(file, r)| {
-                        let truth = read_mesh(file)?;
+                        let truth = super::read_mesh(file)?;
                         if truth.vertices.len() != r.1.positions.len() {
                             return Err(anyhow!(
                                 "{}: {} vertices, the reference has {}",

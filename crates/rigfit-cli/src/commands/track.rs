@@ -7,7 +7,7 @@ use std::time::Instant;
 use anyhow::{Context, anyhow, bail};
 use rigfit_core::track::{ArticulatedModel, FrameFit, TrackOptions, Tracker};
 use rigfit_core::{Point3, Pose};
-use rigfit_formats::error::{extension, write_atomic};
+use rigfit_formats::error::write_atomic;
 use rigfit_formats::report::{to_text, track_frame_json};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 use serde_json::json;
@@ -107,14 +107,7 @@ fn read_truth(path: &Path) -> anyhow::Result<Vec<std::collections::HashMap<Strin
 
 /// Reads one frame's points (vertices of a .ply / .obj cloud or mesh).
 pub fn read_points(path: &Path) -> anyhow::Result<Vec<Point3>> {
-    let mesh = match extension(path).as_str() {
-        "ply" => rigfit_formats::ply::read_ply(path)?,
-        "obj" => rigfit_formats::obj::read_obj(path)?,
-        _ => bail!(
-            "{}: unsupported frame file (expected a .ply or .obj point cloud or mesh)",
-            path.display()
-        ),
-    };
+    let mesh = super::read_mesh(path)?;
     if mesh.vertices.is_empty() {
         bail!("{}: the point cloud is empty", path.display());
     }

@@ -35,16 +35,7 @@ impl NormalEquations {
     /// Adds a 3D residual `r` with weight `w` whose Jacobian columns are `cols`
     /// (parameter index, dr/dparameter), in any order.
     pub fn add_point(&mut self, r: &Vector3, w: f64, cols: &[(usize, Vector3)]) {
-        self.cost += w * r.norm_squared();
-        let n = self.n;
-        for (a, &(ca, va)) in cols.iter().enumerate() {
-            let wa = va * w;
-            self.jtr[ca] += wa.dot(r);
-            for &(cb, vb) in &cols[a..] {
-                let (lo, hi) = if ca <= cb { (ca, cb) } else { (cb, ca) };
-                self.jtj[lo * n + hi] += wa.dot(&vb);
-            }
-        }
+        NormalSink::add_point_columns(self, r, w, cols);
     }
 
     /// Adds a scalar residual `r` with weight `w` that depends on one parameter with
@@ -112,7 +103,7 @@ pub trait NormalSink {
     }
 
     /// Adds a 3D residual `r` with weight `w` whose Jacobian columns are `cols` (parameter
-    /// index, dr/dparameter; each index once), as [`NormalEquations::add_point`].
+    /// index, dr/dparameter; each index once).
     fn add_point_columns(&mut self, r: &Vector3, w: f64, cols: &[(usize, Vector3)]) {
         self.add_cost(w * r.norm_squared());
         for (a, &(ca, va)) in cols.iter().enumerate() {

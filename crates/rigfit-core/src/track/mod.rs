@@ -419,9 +419,9 @@ impl Tracker {
             let voxel = VOXEL_SIGMAS * sigma;
             let coarse = self.options.coarse_to_fine && !last && voxel > 1.5 * self.spacing;
             // Representatives at this level: (texture index, count) and (data index, count).
-            world.clear();
-            world.extend(active.iter().map(|&i| self.texture[i].world(&fk)));
             let (model_reps, data_reps): (Vec<Representative>, Vec<Representative>) = if coarse {
+                world.clear();
+                world.extend(active.iter().map(|&i| self.texture[i].world(&fk)));
                 let reps = voxel_subsample(&world, voxel)
                     .into_iter()
                     .map(|(k, c)| (active[k], c))
