@@ -18,7 +18,7 @@ work=$root/target/surface-peers
 if [ ! -x "$venv/bin/python" ]; then
   python3 -m venv "$venv"
 fi
-"$venv/bin/pip" install -q numpy scipy trimesh==5.2.0 rustcpd==4.0.0 cycpd==0.28
+"$venv/bin/pip" install -q numpy scipy trimesh==5.2.0 rustcpd==4.0.0 cycpd==0.28 pycpd==2.0.0
 
 "$cargo" build -q --release -p rigfit-cli --bin rigfit --example surface_sequence
 rigfit=$root/target/release/rigfit

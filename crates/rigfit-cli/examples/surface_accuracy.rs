@@ -70,6 +70,13 @@ fn track(seq: &SurfaceSequence, options: &SurfaceOptions, label: &str) -> [f64; 
 }
 
 fn main() {
+    // Every addition but the last, each frame starting from the previous fit with the
+    // published first kernel.
+    let previous_start = SurfaceOptions {
+        initial_sigma: SurfaceOptions::paper().initial_sigma,
+        extrapolate: false,
+        ..SurfaceOptions::default()
+    };
     let methods: Vec<(&str, SurfaceOptions)> = vec![
         ("paper (point-to-point, EM sigma)", SurfaceOptions::paper()),
         (
@@ -77,17 +84,21 @@ fn main() {
             SurfaceOptions {
                 tangential: 1.0,
                 anneal: 0.0,
-                ..SurfaceOptions::default()
+                ..previous_start.clone()
             },
         ),
         (
             "+ across-surface weighting",
             SurfaceOptions {
                 anneal: 0.0,
-                ..SurfaceOptions::default()
+                ..previous_start.clone()
             },
         ),
-        ("rigfit (+ annealed sigma)", SurfaceOptions::default()),
+        ("+ annealed sigma", previous_start),
+        (
+            "rigfit (+ motion continued, narrower first kernel)",
+            SurfaceOptions::default(),
+        ),
     ];
     println!(
         "| method | asset (clip) | vertices | patches | mean error (% diag) | p95 (% diag) | missing limb, hole frames (% diag) | ms/frame | EM iterations/frame |"

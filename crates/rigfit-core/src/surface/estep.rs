@@ -154,13 +154,6 @@ impl Default for DataTermOptions {
     }
 }
 
-/// A prediction `x_l(v)` with its normal: one hypothesis for where `v` is.
-#[derive(Clone, Copy, Debug)]
-struct Hypothesis {
-    vertex: u32,
-    normal: Vector3,
-}
-
 /// The E-step's output, collapsed per vertex: `sum_i w_iv`, `sum_i w_iv y_i` and
 /// `sum_i w_iv |y_i|^2`, where `w_iv` is the posterior (eq. 8) of the component whose
 /// closest vertex for `y_i` is `v`.
@@ -328,6 +321,12 @@ pub fn e_step_cached(
         at
     };
     let cache = &*cache;
+    // The hypotheses' normals, turned by their patch.
+    let now_normal: Vec<Vector3> = cache
+        .keys
+        .par_iter()
+        .map(|&(v, l)| pose.rotation[l as usize] * model.rest_normals[v as usize])
+        .collect();
 
     // Priors: the outlier ratio, and the rest in proportion to patch areas.
     let total_area: f64 = model.area.iter().sum();
@@ -387,12 +386,8 @@ pub fn e_step_cached(
                     if d2_hypothesis > cut2 {
                         continue;
                     }
-                    let (vertex, l) = cache.keys[h];
-                    let hyp = Hypothesis {
-                        vertex,
-                        normal: pose.rotation[l as usize] * model.rest_normals[vertex as usize],
-                    };
-                    let cos = ny.dot(&hyp.normal);
+                    let (vertex, _) = cache.keys[h];
+                    let cos = ny.dot(&now_normal[h]);
                     let compatible = if data.oriented {
                         cos >= cos_limit
                     } else {
@@ -401,7 +396,7 @@ pub fn e_step_cached(
                     if !compatible {
                         continue;
                     }
-                    let v = hyp.vertex as usize;
+                    let v = vertex as usize;
                     let k = model.vertex_patch[v] as usize;
                     // v_i^k: the hypothesis of patch k nearest to y_i.
                     match found.iter_mut().find(|f| f.0 == k) {

@@ -18,10 +18,6 @@ use crate::math::{Matrix3, Point3, Vector3, exp_rotation};
 /// A 6x6 block, row-major.
 type Block = [f64; 36];
 
-/// One neighbouring pair's share of the normal equations: the patches, their block slots
-/// `(k,k)`, `(l,l)`, `(k,l)`, the three blocks and the two gradients.
-type PairTerms = (usize, usize, [u32; 3], [Block; 3], [f64; 12]);
-
 /// The block pattern of the normal equations and its reusable symbolic factorisation.
 #[derive(Clone, Debug)]
 pub struct PatchSystem {
@@ -30,11 +26,17 @@ pub struct PatchSystem {
     column_rows: Vec<Vec<u32>>,
     /// Offset of column `l`'s first block in `blocks`.
     column_offset: Vec<usize>,
+    /// The patches `(k, l)`, `k <= l`, of every block.
+    block_patches: Vec<(u32, u32)>,
     /// For each vertex, the block index of every pair of its blended patches
     /// (`blend` order, row-major over the pair).
     vertex_pairs: Vec<Vec<u32>>,
     /// For each neighbouring pair `(k, l)`: blocks `(k,k)`, `(l,l)`, `(min,max)`.
     rigidity_pairs: Vec<(usize, usize, [u32; 3])>,
+    /// For each neighbouring pair, the rest-frame moments of its rigidity term (eq. 4) for
+    /// the blocks `(k,k)`, `(l,l)` and `(k,l)`: the weights `alpha_k(v) + alpha_l(v)` never
+    /// change, so the term's normal equations cost O(1) per pair instead of O(vertices).
+    rigidity_moments: Vec<[OffsetMoments; 3]>,
     symbolic_matrix: SymbolicSparseColMat<usize>,
     symbolic: SymbolicLlt<usize>,
     /// For each scalar entry of the CSC matrix, its block and position in the block.
@@ -80,6 +82,11 @@ impl PatchSystem {
             total += rows.len();
         }
         column_offset.push(total);
+        let block_patches = column_rows
+            .iter()
+            .enumerate()
+            .flat_map(|(l, rows)| rows.iter().map(move |&k| (k, l as u32)))
+            .collect();
         let block_of = |column_rows: &[Vec<u32>], a: usize, b: usize| -> u32 {
             let (k, l) = if a <= b { (a, b) } else { (b, a) };
             let slot = column_rows[l]
@@ -114,6 +121,11 @@ impl PatchSystem {
                 )
             })
             .collect();
+        let rigidity_moments = model
+            .neighbour_pairs()
+            .into_iter()
+            .map(|(k, l)| rigidity_pair_moments(model, k, l))
+            .collect();
         // The scalar pattern: upper triangle of the block pattern.
         let dim = 6 * n;
         let mut col_ptr = Vec::with_capacity(dim + 1);
@@ -140,8 +152,10 @@ impl PatchSystem {
             patch_count: n,
             column_rows,
             column_offset,
+            block_patches,
             vertex_pairs,
             rigidity_pairs,
+            rigidity_moments,
             symbolic_matrix,
             symbolic,
             value_source,
@@ -177,42 +191,171 @@ fn skew(q: &Vector3) -> Matrix3 {
     Matrix3::new(0.0, -q.z, q.y, q.z, 0.0, -q.x, -q.y, q.x, 0.0)
 }
 
-/// Adds `w * J_a^T J_b` for `J = [-[q]x, I]` (the Jacobian of a prediction with respect to
-/// its patch's rotation increment and centre shift).
-#[inline]
-fn add_jtj(block: &mut Block, w: f64, qa: &Vector3, qb: &Vector3) {
-    let sa = skew(qa);
-    let sb = skew(qb);
-    // J_a^T J_b = [[-[qa]x [qb]x, [qa]x], [-[qb]x, I]].
-    let tl = -(sa * sb);
-    for r in 0..3 {
-        for c in 0..3 {
-            block[6 * r + c] += w * tl[(r, c)];
-            block[6 * r + c + 3] += w * sa[(r, c)];
-            block[6 * (r + 3) + c] -= w * sb[(r, c)];
+/// Weighted sums over vertices of their rest-frame offsets from two patch centres,
+/// `a_v = x^0(v) - c_a^0` and `b_v = x^0(v) - c_b^0`. With the rotations they give
+/// `sum_v beta_v J_a(v)^T J_b(v)` for `J = [-[q]x, I]`, `q_a = R_a a_v`, in O(1): the
+/// rotation block is `tr(S) I - S^T` with `S = sum beta q_a q_b^T = R_a (sum beta a b^T) R_b^T`.
+#[derive(Clone, Copy, Debug)]
+struct OffsetMoments {
+    /// `sum beta`.
+    weight: f64,
+    /// `sum beta a_v`.
+    first_a: Vector3,
+    /// `sum beta b_v`.
+    first_b: Vector3,
+    /// `sum beta a_v b_v^T`.
+    second: Matrix3,
+}
+
+impl Default for OffsetMoments {
+    fn default() -> Self {
+        Self {
+            weight: 0.0,
+            first_a: Vector3::zeros(),
+            first_b: Vector3::zeros(),
+            second: Matrix3::zeros(),
         }
-        block[6 * (r + 3) + r + 3] += w;
     }
 }
 
-/// Adds `J_a^T P J_b` for `J = [-[q]x, I]` and a symmetric metric `P` (already weighted).
+impl OffsetMoments {
+    #[inline]
+    fn add(&mut self, beta: f64, a: &Vector3, b: &Vector3) {
+        self.weight += beta;
+        self.first_a += a * beta;
+        self.first_b += b * beta;
+        self.second += (a * beta) * b.transpose();
+    }
+
+    fn add_moments(&mut self, other: &Self) {
+        self.weight += other.weight;
+        self.first_a += other.first_a;
+        self.first_b += other.first_b;
+        self.second += other.second;
+    }
+
+    /// `(sum beta q_a, sum beta q_b, sum beta q_a q_b^T)` for rotations `R_a`, `R_b`.
+    #[inline]
+    fn rotated(&self, ra: &Matrix3, rb: &Matrix3) -> (Vector3, Vector3, Matrix3) {
+        (
+            ra * self.first_a,
+            rb * self.first_b,
+            ra * self.second * rb.transpose(),
+        )
+    }
+
+    /// Adds `scale * sum beta J_a^T J_b`, where
+    /// `J_a^T J_b = [[-[q_a]x [q_b]x, [q_a]x], [-[q_b]x, I]]` and
+    /// `-[q_a]x [q_b]x = (q_a . q_b) I - q_b q_a^T`.
+    #[inline]
+    fn add_to_block(&self, block: &mut Block, scale: f64, ra: &Matrix3, rb: &Matrix3) {
+        let (ma, mb, s) = self.rotated(ra, rb);
+        add_jtj_sums(block, scale, self.weight, &ma, &mb, &s);
+    }
+}
+
+/// Adds `scale * [[tr(S) I - S^T, [m_a]x], [-[m_b]x, w I]]` to `block`: the sum of
+/// `beta J_a^T J_b` over points with `w = sum beta`, `m = sum beta q`,
+/// `S = sum beta q_a q_b^T`.
 #[inline]
-fn add_jtpj(block: &mut Block, p: &Matrix3, qa: &Vector3, qb: &Vector3) {
-    let sa = skew(qa);
-    let sb = skew(qb);
-    // J_a^T P J_b = [[-[qa]x P [qb]x, [qa]x P], [-P [qb]x, P]].
-    let sap = sa * p;
-    let tl = -(sap * sb);
-    let bl = -(p * sb);
+fn add_jtj_sums(
+    block: &mut Block,
+    scale: f64,
+    weight: f64,
+    ma: &Vector3,
+    mb: &Vector3,
+    s: &Matrix3,
+) {
+    let sa = skew(ma);
+    let sb = skew(mb);
+    let trace = s.trace();
     for r in 0..3 {
         for c in 0..3 {
-            block[6 * r + c] += tl[(r, c)];
-            block[6 * r + c + 3] += sap[(r, c)];
-            block[6 * (r + 3) + c] += bl[(r, c)];
-            block[6 * (r + 3) + c + 3] += p[(r, c)];
+            let diagonal = if r == c { trace } else { 0.0 };
+            block[6 * r + c] += scale * (diagonal - s[(c, r)]);
+            block[6 * r + c + 3] += scale * sa[(r, c)];
+            block[6 * (r + 3) + c] -= scale * sb[(r, c)];
+        }
+        block[6 * (r + 3) + r + 3] += scale * weight;
+    }
+}
+
+/// `sum beta q_a x q_b` from `S = sum beta q_a q_b^T`: `[a x b]x = b a^T - a b^T`, so the
+/// sum is the axial vector of `S^T - S`.
+#[inline]
+fn cross_sum(s: &Matrix3) -> Vector3 {
+    Vector3::new(
+        s[(1, 2)] - s[(2, 1)],
+        s[(2, 0)] - s[(0, 2)],
+        s[(0, 1)] - s[(1, 0)],
+    )
+}
+
+/// The moments of the rigidity term of neighbouring patches `k < l` (eq. 4): over the
+/// vertices of both, weights `alpha_k(v) + alpha_l(v)`, for blocks `(k,k)`, `(l,l)`, `(k,l)`.
+fn rigidity_pair_moments(model: &PatchModel, k: usize, l: usize) -> [OffsetMoments; 3] {
+    let mut out = [OffsetMoments::default(); 3];
+    for &v in model.members[k].iter().chain(&model.members[l]) {
+        let v = v as usize;
+        let beta = model.alpha(k, v) + model.alpha(l, v);
+        let a = model.rest[v] - model.rest_centre[k];
+        let b = model.rest[v] - model.rest_centre[l];
+        out[0].add(beta, &a, &a);
+        out[1].add(beta, &b, &b);
+        out[2].add(beta, &a, &b);
+    }
+    out
+}
+
+/// One block's share of the data term, summed over vertices: the isotropic part of the
+/// metric in rest-frame moments, and the part along the normal, `c u_a u_b^T` with
+/// `u = [q x n; n]`, in world coordinates.
+#[derive(Clone, Copy, Debug)]
+struct DataBlockSums {
+    isotropic: OffsetMoments,
+    rotation_rotation: Matrix3,
+    rotation_shift: Matrix3,
+    shift_rotation: Matrix3,
+    shift_shift: Matrix3,
+}
+
+impl Default for DataBlockSums {
+    fn default() -> Self {
+        Self {
+            isotropic: OffsetMoments::default(),
+            rotation_rotation: Matrix3::zeros(),
+            rotation_shift: Matrix3::zeros(),
+            shift_rotation: Matrix3::zeros(),
+            shift_shift: Matrix3::zeros(),
         }
     }
 }
+
+impl DataBlockSums {
+    fn add_sums(&mut self, other: &Self) {
+        self.isotropic.add_moments(&other.isotropic);
+        self.rotation_rotation += other.rotation_rotation;
+        self.rotation_shift += other.rotation_shift;
+        self.shift_rotation += other.shift_rotation;
+        self.shift_shift += other.shift_shift;
+    }
+
+    fn add_to_block(&self, block: &mut Block, ra: &Matrix3, rb: &Matrix3) {
+        self.isotropic.add_to_block(block, 1.0, ra, rb);
+        for r in 0..3 {
+            for c in 0..3 {
+                block[6 * r + c] += self.rotation_rotation[(r, c)];
+                block[6 * r + c + 3] += self.rotation_shift[(r, c)];
+                block[6 * (r + 3) + c] += self.shift_rotation[(r, c)];
+                block[6 * (r + 3) + c + 3] += self.shift_shift[(r, c)];
+            }
+        }
+    }
+}
+
+/// Blend pairs whose weights multiply to less than this are left out of the Gauss-Newton
+/// matrix (not out of the gradient, so the fixed point is unchanged).
+const NEGLIGIBLE_BLEND_PAIR: f64 = 0.0;
 
 /// Adds `w * J^T r` for `J = [-[q]x, I]`.
 #[inline]
@@ -240,6 +383,16 @@ pub struct StepWeights {
     pub tangential: f64,
 }
 
+/// One vertex's data term: `weight * |x(v) - ybar_v|_P^2` with `P = n n^T + t (I - n n^T)`.
+struct DataTerm {
+    vertex: usize,
+    weight: f64,
+    normal: Vector3,
+    /// `weight * P`.
+    metric: Matrix3,
+    residual: Vector3,
+}
+
 /// One Gauss-Newton step on `data * sum_v W_v |x(v) - ybar_v|_P^2 + rigidity * E_r`, applied
 /// to `pose` in place, where `P = n n^T + tangential (I - n n^T)` for the vertex normal `n`.
 pub fn gauss_newton_step(
@@ -257,98 +410,113 @@ pub fn gauss_newton_step(
 
     // Data term, vertex by vertex: residual x(v) - ybar_v with weight W_v; the Jacobian of
     // x(v) is sum_k alpha_k(v) J_k(v) (eq. 2).
-    let data_terms: Vec<(usize, Matrix3, Vector3)> = (0..model.vertex_count())
+    let data_terms: Vec<DataTerm> = (0..model.vertex_count())
         .filter(|&v| targets.weight[v] > 1e-12)
         .map(|v| {
             let w = targets.weight[v];
             let ybar = targets.weighted_sum[v] / w;
             let n = normals[v];
             let across = n * n.transpose();
-            let metric =
-                (across + (Matrix3::identity() - across) * weights.tangential) * (w * weights.data);
-            (v, metric, positions[v].coords - ybar)
+            let weight = w * weights.data;
+            let metric = (across + (Matrix3::identity() - across) * weights.tangential) * weight;
+            DataTerm {
+                vertex: v,
+                weight,
+                normal: n,
+                metric,
+                residual: positions[v].coords - ybar,
+            }
         })
         .collect();
-    // Two halves in parallel, each into its own blocks, then summed.
+    // Eq. 15's normal equations for the data term. With `P = t I + (1 - t) n n^T` and
+    // `J_a = alpha_a [-[q_a]x, I]`, each block `sum_v W_v J_a^T P J_b` splits into an
+    // isotropic part (summed as rest-frame moments, rotated once per block) and a rank-one
+    // part along the normal. Two halves in parallel, each into its own sums, then added.
     let half = data_terms.len().div_ceil(2).max(1);
-    let partial: Vec<(Vec<Block>, Vec<f64>)> = data_terms
+    let partial: Vec<(Vec<DataBlockSums>, Vec<f64>)> = data_terms
         .par_chunks(half)
         .map(|terms| {
-            let mut blocks = vec![[0.0; 36]; system.block_count()];
+            let mut sums = vec![DataBlockSums::default(); system.block_count()];
             let mut gradient = vec![0.0; 6 * n];
-            let mut blend: Vec<(usize, f64, Vector3)> = Vec::with_capacity(16);
-            for &(v, metric, r) in terms {
-                let pr = metric * r;
+            // Per blended patch: index, alpha, rest offset, q = R offset, q x n.
+            let mut blend: Vec<(usize, f64, Vector3, Vector3, Vector3)> = Vec::with_capacity(16);
+            for term in terms {
+                let v = term.vertex;
+                let pr = term.metric * term.residual;
+                let isotropic = weights.tangential * term.weight;
+                let along_normal = (1.0 - weights.tangential) * term.weight;
+                let normal = term.normal;
                 blend.clear();
-                blend.extend(
-                    model
-                        .blend(v)
-                        .map(|(k, a)| (k, a, model.offset(pose, k, v))),
-                );
+                blend.extend(model.blend(v).map(|(k, a)| {
+                    let rest_offset = model.rest[v] - model.rest_centre[k];
+                    let q = pose.rotation[k] * rest_offset;
+                    (k, a, rest_offset, q, q.cross(&normal))
+                }));
                 let pairs = &system.vertex_pairs[v];
                 let m = blend.len();
-                for (ia, &(ka, aa, qa)) in blend.iter().enumerate() {
+                for (ia, &(ka, aa, offset_a, qa, qa_cross_n)) in blend.iter().enumerate() {
                     add_jtr(&mut gradient[6 * ka..6 * ka + 6], aa, &qa, &pr);
-                    let pa = metric * aa;
-                    for (ib, &(kb, ab, qb)) in blend.iter().enumerate() {
-                        if ka <= kb {
-                            add_jtpj(
-                                &mut blocks[pairs[ia * m + ib] as usize],
-                                &(pa * ab),
-                                &qa,
-                                &qb,
-                            );
+                    for (ib, &(kb, ab, offset_b, _, qb_cross_n)) in blend.iter().enumerate() {
+                        let alphas = aa * ab;
+                        if ka > kb || alphas < NEGLIGIBLE_BLEND_PAIR {
+                            continue;
                         }
+                        let sum = &mut sums[pairs[ia * m + ib] as usize];
+                        sum.isotropic.add(isotropic * alphas, &offset_a, &offset_b);
+                        let c = along_normal * alphas;
+                        let ua = qa_cross_n * c;
+                        let na = normal * c;
+                        sum.rotation_rotation += ua * qb_cross_n.transpose();
+                        sum.rotation_shift += ua * normal.transpose();
+                        sum.shift_rotation += na * qb_cross_n.transpose();
+                        sum.shift_shift += na * normal.transpose();
                     }
                 }
             }
-            (blocks, gradient)
+            (sums, gradient)
         })
         .collect();
-    for (b, g) in partial {
-        for (t, s) in blocks.iter_mut().zip(&b) {
-            for (x, y) in t.iter_mut().zip(s) {
-                *x += y;
-            }
+    let mut sums = vec![DataBlockSums::default(); system.block_count()];
+    for (part_sums, part_gradient) in partial {
+        for (t, s) in sums.iter_mut().zip(&part_sums) {
+            t.add_sums(s);
         }
-        for (x, y) in gradient.iter_mut().zip(&g) {
+        for (x, y) in gradient.iter_mut().zip(&part_gradient) {
             *x += y;
         }
+    }
+    for (block, (sum, &(a, b))) in blocks
+        .iter_mut()
+        .zip(sums.iter().zip(&system.block_patches))
+    {
+        sum.add_to_block(
+            block,
+            &pose.rotation[a as usize],
+            &pose.rotation[b as usize],
+        );
     }
 
     // Rigidity (eq. 4): residual x_k(v) - x_l(v) over v in P_k and P_l, weight
     // alpha_k(v) + alpha_l(v); the Jacobian is J_k(v) for patch k and -J_l(v) for patch l.
-    let rigidity: Vec<PairTerms> = system
-        .rigidity_pairs
-        .par_iter()
-        .map(|&(k, l, ids)| {
-            let mut b = [[0.0; 36]; 3];
-            let mut g = [0.0; 12];
-            for &v in model.members[k].iter().chain(&model.members[l]) {
-                let v = v as usize;
-                let beta = weights.rigidity * (model.alpha(k, v) + model.alpha(l, v));
-                let qk = model.offset(pose, k, v);
-                let ql = model.offset(pose, l, v);
-                let r = (pose.centre[k] + qk) - (pose.centre[l] + ql);
-                add_jtj(&mut b[0], beta, &qk, &qk);
-                add_jtj(&mut b[1], beta, &ql, &ql);
-                add_jtj(&mut b[2], -beta, &qk, &ql);
-                add_jtr(&mut g[..6], beta, &qk, &r);
-                add_jtr(&mut g[6..], -beta, &ql, &r);
-            }
-            (k, l, ids, b, g)
-        })
-        .collect();
-    // Pairs are (k, l) with k < l: the cross block is stored as it is.
-    for (k, l, ids, b, g) in rigidity {
-        for (slot, block) in ids.iter().zip(&b) {
-            for (t, s) in blocks[*slot as usize].iter_mut().zip(block) {
-                *t += s;
-            }
-        }
-        for i in 0..6 {
-            gradient[6 * k + i] += g[i];
-            gradient[6 * l + i] += g[6 + i];
+    // From the pair's rest-frame moments: with d = c_k - c_l and r = d + q_k - q_l,
+    // sum beta q_k x r = m_k x d - X and sum beta q_l x r = m_l x d - X, X = sum q_k x q_l.
+    for (&(k, l, ids), moments) in system.rigidity_pairs.iter().zip(&system.rigidity_moments) {
+        let (rk, rl) = (&pose.rotation[k], &pose.rotation[l]);
+        let w = weights.rigidity;
+        moments[0].add_to_block(&mut blocks[ids[0] as usize], w, rk, rk);
+        moments[1].add_to_block(&mut blocks[ids[1] as usize], w, rl, rl);
+        moments[2].add_to_block(&mut blocks[ids[2] as usize], -w, rk, rl);
+        let (mk, ml, s) = moments[2].rotated(rk, rl);
+        let crossed = cross_sum(&s);
+        let d = pose.centre[k] - pose.centre[l];
+        let residual_sum = d * moments[2].weight + mk - ml;
+        let top_k = mk.cross(&d) - crossed;
+        let top_l = ml.cross(&d) - crossed;
+        for i in 0..3 {
+            gradient[6 * k + i] += w * top_k[i];
+            gradient[6 * k + 3 + i] += w * residual_sum[i];
+            gradient[6 * l + i] -= w * top_l[i];
+            gradient[6 * l + 3 + i] -= w * residual_sum[i];
         }
     }
 
@@ -400,4 +568,291 @@ fn orthonormalise(m: &Matrix3) -> Matrix3 {
     crate::math::Quat::from_matrix(m)
         .to_rotation_matrix()
         .into_inner()
+}
+
+#[cfg(test)]
+mod reference {
+    //! The assembly before the moment form, vertex by vertex (for the equivalence test).
+    #![allow(clippy::all)]
+    use super::*;
+    type PairTerms = (usize, usize, [u32; 3], [Block; 3], [f64; 12]);
+    /// Adds `w * J_a^T J_b` for `J = [-[q]x, I]` (the Jacobian of a prediction with respect to
+    /// its patch's rotation increment and centre shift).
+    #[inline]
+    pub fn add_jtj(block: &mut Block, w: f64, qa: &Vector3, qb: &Vector3) {
+        let sa = skew(qa);
+        let sb = skew(qb);
+        // J_a^T J_b = [[-[qa]x [qb]x, [qa]x], [-[qb]x, I]].
+        let tl = -(sa * sb);
+        for r in 0..3 {
+            for c in 0..3 {
+                block[6 * r + c] += w * tl[(r, c)];
+                block[6 * r + c + 3] += w * sa[(r, c)];
+                block[6 * (r + 3) + c] -= w * sb[(r, c)];
+            }
+            block[6 * (r + 3) + r + 3] += w;
+        }
+    }
+
+    /// Adds `J_a^T P J_b` for `J = [-[q]x, I]` and a symmetric metric `P` (already weighted).
+    #[inline]
+    pub fn add_jtpj(block: &mut Block, p: &Matrix3, qa: &Vector3, qb: &Vector3) {
+        let sa = skew(qa);
+        let sb = skew(qb);
+        // J_a^T P J_b = [[-[qa]x P [qb]x, [qa]x P], [-P [qb]x, P]].
+        let sap = sa * p;
+        let tl = -(sap * sb);
+        let bl = -(p * sb);
+        for r in 0..3 {
+            for c in 0..3 {
+                block[6 * r + c] += tl[(r, c)];
+                block[6 * r + c + 3] += sap[(r, c)];
+                block[6 * (r + 3) + c] += bl[(r, c)];
+                block[6 * (r + 3) + c + 3] += p[(r, c)];
+            }
+        }
+    }
+
+    /// One Gauss-Newton step on `data * sum_v W_v |x(v) - ybar_v|_P^2 + rigidity * E_r`, applied
+    /// to `pose` in place, where `P = n n^T + tangential (I - n n^T)` for the vertex normal `n`.
+    pub fn reference_step(
+        model: &PatchModel,
+        system: &PatchSystem,
+        pose: &mut PatchPose,
+        positions: &[Point3],
+        normals: &[Vector3],
+        targets: &VertexTargets,
+        weights: &StepWeights,
+    ) -> Result<(), SolveError> {
+        let n = model.patch_count();
+        let mut blocks = vec![[0.0; 36]; system.block_count()];
+        let mut gradient = vec![0.0; 6 * n];
+
+        // Data term, vertex by vertex: residual x(v) - ybar_v with weight W_v; the Jacobian of
+        // x(v) is sum_k alpha_k(v) J_k(v) (eq. 2).
+        let data_terms: Vec<(usize, Matrix3, Vector3)> = (0..model.vertex_count())
+            .filter(|&v| targets.weight[v] > 1e-12)
+            .map(|v| {
+                let w = targets.weight[v];
+                let ybar = targets.weighted_sum[v] / w;
+                let n = normals[v];
+                let across = n * n.transpose();
+                let metric = (across + (Matrix3::identity() - across) * weights.tangential)
+                    * (w * weights.data);
+                (v, metric, positions[v].coords - ybar)
+            })
+            .collect();
+        // Two halves in parallel, each into its own blocks, then summed.
+        let half = data_terms.len().div_ceil(2).max(1);
+        let partial: Vec<(Vec<Block>, Vec<f64>)> = data_terms
+            .par_chunks(half)
+            .map(|terms| {
+                let mut blocks = vec![[0.0; 36]; system.block_count()];
+                let mut gradient = vec![0.0; 6 * n];
+                let mut blend: Vec<(usize, f64, Vector3)> = Vec::with_capacity(16);
+                for &(v, metric, r) in terms {
+                    let pr = metric * r;
+                    blend.clear();
+                    blend.extend(
+                        model
+                            .blend(v)
+                            .map(|(k, a)| (k, a, model.offset(pose, k, v))),
+                    );
+                    let pairs = &system.vertex_pairs[v];
+                    let m = blend.len();
+                    for (ia, &(ka, aa, qa)) in blend.iter().enumerate() {
+                        add_jtr(&mut gradient[6 * ka..6 * ka + 6], aa, &qa, &pr);
+                        let pa = metric * aa;
+                        for (ib, &(kb, ab, qb)) in blend.iter().enumerate() {
+                            if ka <= kb {
+                                add_jtpj(
+                                    &mut blocks[pairs[ia * m + ib] as usize],
+                                    &(pa * ab),
+                                    &qa,
+                                    &qb,
+                                );
+                            }
+                        }
+                    }
+                }
+                (blocks, gradient)
+            })
+            .collect();
+        for (b, g) in partial {
+            for (t, s) in blocks.iter_mut().zip(&b) {
+                for (x, y) in t.iter_mut().zip(s) {
+                    *x += y;
+                }
+            }
+            for (x, y) in gradient.iter_mut().zip(&g) {
+                *x += y;
+            }
+        }
+
+        // Rigidity (eq. 4): residual x_k(v) - x_l(v) over v in P_k and P_l, weight
+        // alpha_k(v) + alpha_l(v); the Jacobian is J_k(v) for patch k and -J_l(v) for patch l.
+        let rigidity: Vec<PairTerms> = system
+            .rigidity_pairs
+            .par_iter()
+            .map(|&(k, l, ids)| {
+                let mut b = [[0.0; 36]; 3];
+                let mut g = [0.0; 12];
+                for &v in model.members[k].iter().chain(&model.members[l]) {
+                    let v = v as usize;
+                    let beta = weights.rigidity * (model.alpha(k, v) + model.alpha(l, v));
+                    let qk = model.offset(pose, k, v);
+                    let ql = model.offset(pose, l, v);
+                    let r = (pose.centre[k] + qk) - (pose.centre[l] + ql);
+                    add_jtj(&mut b[0], beta, &qk, &qk);
+                    add_jtj(&mut b[1], beta, &ql, &ql);
+                    add_jtj(&mut b[2], -beta, &qk, &ql);
+                    add_jtr(&mut g[..6], beta, &qk, &r);
+                    add_jtr(&mut g[6..], -beta, &ql, &r);
+                }
+                (k, l, ids, b, g)
+            })
+            .collect();
+        // Pairs are (k, l) with k < l: the cross block is stored as it is.
+        for (k, l, ids, b, g) in rigidity {
+            for (slot, block) in ids.iter().zip(&b) {
+                for (t, s) in blocks[*slot as usize].iter_mut().zip(block) {
+                    *t += s;
+                }
+            }
+            for i in 0..6 {
+                gradient[6 * k + i] += g[i];
+                gradient[6 * l + i] += g[6 + i];
+            }
+        }
+
+        // Damping: relative (Levenberg-Marquardt) plus a floor so that patches with no data and
+        // no neighbours (a lone object out of view) stay put instead of making H singular.
+        // Rotation entries scale with length^2: the floor compares them at the model's size.
+        let diagonal_block = |k: usize| {
+            let slot = system.column_rows[k]
+                .binary_search(&(k as u32))
+                .expect("every column holds its diagonal block");
+            system.column_offset[k] + slot
+        };
+        let max_translation = (0..n)
+            .flat_map(|k| (3..6).map(move |i| (k, i)))
+            .map(|(k, i)| blocks[diagonal_block(k)][7 * i])
+            .fold(0.0, f64::max)
+            .max(1e-300);
+        // A weak prior to stay put, worth about `damping` of an average patch's data, so that a
+        // patch seen by a handful of points cannot swing far in one step.
+        let data_weight: f64 = targets.weight.iter().sum::<f64>() * weights.data;
+        let floor_translation = 1e-9 * max_translation + weights.damping * data_weight / n as f64;
+        let floor_rotation = floor_translation * model.diagonal * model.diagonal;
+        for k in 0..n {
+            let block = &mut blocks[diagonal_block(k)];
+            for i in 0..6 {
+                let floor = if i < 3 {
+                    floor_rotation
+                } else {
+                    floor_translation
+                };
+                block[7 * i] += weights.damping * block[7 * i] + floor;
+            }
+        }
+
+        let mut rhs: Vec<f64> = gradient.iter().map(|g| -g).collect();
+        system.solve(&blocks, &mut rhs)?;
+        for k in 0..n {
+            let w = Vector3::new(rhs[6 * k], rhs[6 * k + 1], rhs[6 * k + 2]);
+            let dc = Vector3::new(rhs[6 * k + 3], rhs[6 * k + 4], rhs[6 * k + 5]);
+            let turn = exp_rotation(&w).to_rotation_matrix().into_inner();
+            pose.rotation[k] = super::orthonormalise(&(turn * pose.rotation[k]));
+            pose.centre[k] += dc;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::surface::cases::torus;
+    use crate::surface::model::PatchOptions;
+    use rand::{Rng, SeedableRng};
+
+    /// The moment form of the normal equations takes the same step as summing vertex by
+    /// vertex.
+    #[test]
+    fn moment_assembly_matches_vertex_by_vertex_sums() {
+        let reference = torus(30, 15);
+        let model = PatchModel::new(&reference, &PatchOptions::default()).expect("model");
+        let system = PatchSystem::new(&model).expect("system");
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let mut pose = model.rest_pose();
+        for k in 0..model.patch_count() {
+            let w = Vector3::new(rng.random(), rng.random(), rng.random()) * 0.3;
+            pose.rotation[k] = exp_rotation(&w).to_rotation_matrix().into_inner();
+            pose.centre[k] += Vector3::new(rng.random(), rng.random(), rng.random()) * 0.05;
+        }
+        let positions = model.positions(&pose);
+        let normals = model.normals(&pose);
+        let n = model.vertex_count();
+        let mut targets = VertexTargets {
+            weight: vec![0.0; n],
+            weighted_sum: vec![Vector3::zeros(); n],
+            weighted_square: vec![0.0; n],
+            ..Default::default()
+        };
+        for v in 0..n {
+            if rng.random::<f64>() < 0.8 {
+                let w: f64 = rng.random();
+                let y = positions[v].coords
+                    + Vector3::new(rng.random(), rng.random(), rng.random()) * 0.1;
+                targets.weight[v] = w;
+                targets.weighted_sum[v] = y * w;
+                targets.weighted_square[v] = w * y.norm_squared();
+            }
+        }
+        for (data, rigidity, tangential) in [
+            (40.0, 0.0, 1.0),
+            (40.0, 0.0, 0.0),
+            (0.0, 3.0, 1.0),
+            (40.0, 3.0, 0.3),
+        ] {
+            let weights = StepWeights {
+                data,
+                rigidity,
+                damping: 1e-3,
+                tangential,
+            };
+            let mut moment_pose = pose.clone();
+            gauss_newton_step(
+                &model,
+                &system,
+                &mut moment_pose,
+                &positions,
+                &normals,
+                &targets,
+                &weights,
+            )
+            .expect("step");
+            let mut vertex_pose = pose.clone();
+            reference::reference_step(
+                &model,
+                &system,
+                &mut vertex_pose,
+                &positions,
+                &normals,
+                &targets,
+                &weights,
+            )
+            .expect("step");
+            for k in 0..model.patch_count() {
+                let dr = (moment_pose.rotation[k] - vertex_pose.rotation[k])
+                    .abs()
+                    .max();
+                let dc = (moment_pose.centre[k] - vertex_pose.centre[k]).norm();
+                assert!(
+                    dr < 1e-9 && dc < 1e-9,
+                    "{data} {rigidity} {tangential} patch {k}: rotation {dr}, centre {dc}"
+                );
+            }
+        }
+    }
 }
