@@ -4,11 +4,18 @@
 # error against the true skinned vertices, % of the bounding-box diagonal). Installs the
 # peers in a venv under target/; prints a markdown table (BENCHMARKS.md, issue 5).
 #
-#   scripts/bench-surface-peers.sh [FRAMES]      (default 12: frames 0-11, two hole frames included)
+#   scripts/bench-surface-peers.sh [FRAMES [PEER...]]   (default 12 frames: 0-11, two hole
+#   frames included; PEER picks among rustcpd, cycpd, nricp, pycpd, all by default)
+#
+# Every tool runs on one thread (../shared/peers.md): rigfit, rustcpd (rayon) and the numpy
+# ones (BLAS) alike.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
 frames=${1:-12}
+shift || true
+peers=("$@")
+export RAYON_NUM_THREADS=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 data=${RIGFIT_DATA:-$root/../shared/data}
 cargo=${CARGO:-/work/bin/cargo-slot}
 [ -x "$cargo" ] || cargo=cargo
@@ -34,5 +41,5 @@ for spec in "assimp/BCN_Epileptic.glb jump bcn" "assimp/Testwuson.glb run wuson"
   scans=$(for f in $(seq 0 $((frames - 1))); do printf '%s/seq/scan_%04d.ply ' "$dir" "$f"; done)
   # shellcheck disable=SC2086
   "$rigfit" surface "$dir/seq/reference.ply" $scans -o "$dir/rigfit" --report "$dir/rigfit.json" > /dev/null
-  "$venv/bin/python" scripts/surface_peers.py "$dir/seq" "$dir/rigfit" "$dir/rigfit.json" "$frames"
+  "$venv/bin/python" scripts/surface_peers.py "$dir/seq" "$dir/rigfit" "$dir/rigfit.json" "$frames" ${peers[@]+"${peers[@]}"}
 done
