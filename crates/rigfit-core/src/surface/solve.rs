@@ -393,6 +393,33 @@ struct DataTerm {
     residual: Vector3,
 }
 
+/// The data term of every vertex with posterior weight (eq. 15, collapsed per vertex).
+fn data_terms(
+    positions: &[Point3],
+    normals: &[Vector3],
+    targets: &VertexTargets,
+    weights: &StepWeights,
+) -> Vec<DataTerm> {
+    (0..positions.len())
+        .filter(|&v| targets.weight[v] > 1e-12)
+        .map(|v| {
+            let w = targets.weight[v];
+            let ybar = targets.weighted_sum[v] / w;
+            let n = normals[v];
+            let across = n * n.transpose();
+            let weight = w * weights.data;
+            let metric = (across + (Matrix3::identity() - across) * weights.tangential) * weight;
+            DataTerm {
+                vertex: v,
+                weight,
+                normal: n,
+                metric,
+                residual: positions[v].coords - ybar,
+            }
+        })
+        .collect()
+}
+
 /// One Gauss-Newton step on `data * sum_v W_v |x(v) - ybar_v|_P^2 + rigidity * E_r`, applied
 /// to `pose` in place, where `P = n n^T + tangential (I - n n^T)` for the vertex normal `n`.
 pub fn gauss_newton_step(
@@ -410,24 +437,7 @@ pub fn gauss_newton_step(
 
     // Data term, vertex by vertex: residual x(v) - ybar_v with weight W_v; the Jacobian of
     // x(v) is sum_k alpha_k(v) J_k(v) (eq. 2).
-    let data_terms: Vec<DataTerm> = (0..model.vertex_count())
-        .filter(|&v| targets.weight[v] > 1e-12)
-        .map(|v| {
-            let w = targets.weight[v];
-            let ybar = targets.weighted_sum[v] / w;
-            let n = normals[v];
-            let across = n * n.transpose();
-            let weight = w * weights.data;
-            let metric = (across + (Matrix3::identity() - across) * weights.tangential) * weight;
-            DataTerm {
-                vertex: v,
-                weight,
-                normal: n,
-                metric,
-                residual: positions[v].coords - ybar,
-            }
-        })
-        .collect();
+    let data_terms = data_terms(positions, normals, targets, weights);
     // Eq. 15's normal equations for the data term. With `P = t I + (1 - t) n n^T` and
     // `J_a = alpha_a [-[q_a]x, I]`, each block `sum_v W_v J_a^T P J_b` splits into an
     // isotropic part (summed as rest-frame moments, rotated once per block) and a rank-one
@@ -520,6 +530,29 @@ pub fn gauss_newton_step(
         }
     }
 
+    damp_solve_and_apply(
+        model,
+        system,
+        pose,
+        &mut blocks,
+        &gradient,
+        targets,
+        weights,
+    )
+}
+
+/// Adds the damping to the assembled normal equations, solves them and applies the step
+/// (rotation increments and centre shifts) to `pose`.
+fn damp_solve_and_apply(
+    model: &PatchModel,
+    system: &PatchSystem,
+    pose: &mut PatchPose,
+    blocks: &mut [Block],
+    gradient: &[f64],
+    targets: &VertexTargets,
+    weights: &StepWeights,
+) -> Result<(), SolveError> {
+    let n = model.patch_count();
     // Damping: relative (Levenberg-Marquardt) plus a floor so that patches with no data and
     // no neighbours (a lone object out of view) stay put instead of making H singular.
     // Rotation entries scale with length^2: the floor compares them at the model's size.
@@ -552,7 +585,7 @@ pub fn gauss_newton_step(
     }
 
     let mut rhs: Vec<f64> = gradient.iter().map(|g| -g).collect();
-    system.solve(&blocks, &mut rhs)?;
+    system.solve(blocks, &mut rhs)?;
     for k in 0..n {
         let w = Vector3::new(rhs[6 * k], rhs[6 * k + 1], rhs[6 * k + 2]);
         let dc = Vector3::new(rhs[6 * k + 3], rhs[6 * k + 4], rhs[6 * k + 5]);
@@ -630,18 +663,11 @@ mod reference {
 
         // Data term, vertex by vertex: residual x(v) - ybar_v with weight W_v; the Jacobian of
         // x(v) is sum_k alpha_k(v) J_k(v) (eq. 2).
-        let data_terms: Vec<(usize, Matrix3, Vector3)> = (0..model.vertex_count())
-            .filter(|&v| targets.weight[v] > 1e-12)
-            .map(|v| {
-                let w = targets.weight[v];
-                let ybar = targets.weighted_sum[v] / w;
-                let n = normals[v];
-                let across = n * n.transpose();
-                let metric = (across + (Matrix3::identity() - across) * weights.tangential)
-                    * (w * weights.data);
-                (v, metric, positions[v].coords - ybar)
-            })
-            .collect();
+        let data_terms: Vec<(usize, Matrix3, Vector3)> =
+            super::data_terms(positions, normals, targets, weights)
+                .into_iter()
+                .map(|t| (t.vertex, t.metric, t.residual))
+                .collect();
         // Two halves in parallel, each into its own blocks, then summed.
         let half = data_terms.len().div_ceil(2).max(1);
         let partial: Vec<(Vec<Block>, Vec<f64>)> = data_terms
@@ -725,47 +751,15 @@ mod reference {
             }
         }
 
-        // Damping: relative (Levenberg-Marquardt) plus a floor so that patches with no data and
-        // no neighbours (a lone object out of view) stay put instead of making H singular.
-        // Rotation entries scale with length^2: the floor compares them at the model's size.
-        let diagonal_block = |k: usize| {
-            let slot = system.column_rows[k]
-                .binary_search(&(k as u32))
-                .expect("every column holds its diagonal block");
-            system.column_offset[k] + slot
-        };
-        let max_translation = (0..n)
-            .flat_map(|k| (3..6).map(move |i| (k, i)))
-            .map(|(k, i)| blocks[diagonal_block(k)][7 * i])
-            .fold(0.0, f64::max)
-            .max(1e-300);
-        // A weak prior to stay put, worth about `damping` of an average patch's data, so that a
-        // patch seen by a handful of points cannot swing far in one step.
-        let data_weight: f64 = targets.weight.iter().sum::<f64>() * weights.data;
-        let floor_translation = 1e-9 * max_translation + weights.damping * data_weight / n as f64;
-        let floor_rotation = floor_translation * model.diagonal * model.diagonal;
-        for k in 0..n {
-            let block = &mut blocks[diagonal_block(k)];
-            for i in 0..6 {
-                let floor = if i < 3 {
-                    floor_rotation
-                } else {
-                    floor_translation
-                };
-                block[7 * i] += weights.damping * block[7 * i] + floor;
-            }
-        }
-
-        let mut rhs: Vec<f64> = gradient.iter().map(|g| -g).collect();
-        system.solve(&blocks, &mut rhs)?;
-        for k in 0..n {
-            let w = Vector3::new(rhs[6 * k], rhs[6 * k + 1], rhs[6 * k + 2]);
-            let dc = Vector3::new(rhs[6 * k + 3], rhs[6 * k + 4], rhs[6 * k + 5]);
-            let turn = exp_rotation(&w).to_rotation_matrix().into_inner();
-            pose.rotation[k] = super::orthonormalise(&(turn * pose.rotation[k]));
-            pose.centre[k] += dc;
-        }
-        Ok(())
+        super::damp_solve_and_apply(
+            model,
+            system,
+            pose,
+            &mut blocks,
+            &gradient,
+            targets,
+            weights,
+        )
     }
 }
 
