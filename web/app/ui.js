@@ -55,7 +55,10 @@ export class PageUi {
         const key = shortcutOf(name);
         button.title = key ? `${help} [${key}]` : help;
         button.innerHTML = `${label}${key ? ` <kbd>${key}</kbd>` : ''}`;
-        button.addEventListener('click', () => this.input.command(name));
+        button.addEventListener('click', () => {
+          button.blur(); // keys go to the page's shortcuts, not to the last button clicked
+          this.input.command(name);
+        });
         box.append(button);
       }
       this.toolbar.append(box);

@@ -25,8 +25,15 @@ export class Viewport {
     grid.name = 'floor';
     this.scene.add(grid);
 
+    // In VR the headset and controllers are placed by the XR reference space, under `user`:
+    // moving `user` moves where the person stands on the page. On the desktop it stays at the
+    // origin, so the orbit camera inside it works in page space.
+    this.user = new THREE.Group();
+    this.user.name = 'user';
+    this.scene.add(this.user);
     this.camera = new THREE.PerspectiveCamera(40, 1, 0.01, 200);
     this.camera.position.set(0, 1.2, 4.2);
+    this.user.add(this.camera);
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
     this.controls.target.set(0, 0.95, 0);
     // The left button, a pen and one finger draw; the right button (or two fingers) orbits,
@@ -62,14 +69,16 @@ export class Viewport {
   /** Points the camera at a box (page space) from the front (+z), the whole box in view. */
   frame(box) {
     if (box.isEmpty()) return;
+    box = box.clone();
+    box.max.y += 0.35 * (box.max.y - box.min.y); // room for raised arms
     const centre = box.getCenter(new THREE.Vector3());
     const size = box.getSize(new THREE.Vector3());
     const fov = THREE.MathUtils.degToRad(this.camera.fov);
     const fitHeight = size.y / 2 / Math.tan(fov / 2);
     const fitWidth = size.x / 2 / Math.tan(fov / 2) / this.camera.aspect;
-    const distance = 1.25 * Math.max(fitHeight, fitWidth) + size.z / 2;
+    const distance = 1.1 * Math.max(fitHeight, fitWidth) + size.z / 2;
     this.controls.target.copy(centre);
-    this.camera.position.set(centre.x, centre.y + 0.15 * size.y, centre.z + distance);
+    this.camera.position.set(centre.x, centre.y + 0.1 * size.y, centre.z + distance);
     this.camera.near = distance / 100;
     this.camera.far = distance * 100;
     this.camera.updateProjectionMatrix();

@@ -65,7 +65,7 @@ export class XrSketching {
     this.input = input;
     this.button = button;
     this.session = null;
-    this.origin = new THREE.Vector3(); // page position of the XR reference space's origin
+    this.origin = new THREE.Vector3(); // where the XR reference space's origin is on the page
     this.hands = [];
     const renderer = viewport.renderer;
     const factory = new XRControllerModelFactory();
@@ -113,7 +113,7 @@ export class XrSketching {
         hand.grabbing = false;
         this.input.dispatch({ type: 'grabEnd' });
       });
-      viewport.scene.add(ray, grip);
+      viewport.user.add(ray, grip);
       this.hands.push(hand);
     }
     viewport.beforeRender.push(() => this.update());
@@ -138,14 +138,12 @@ export class XrSketching {
     const box = this.editor.selected?.worldBox() ?? new THREE.Box3(new THREE.Vector3(), new THREE.Vector3());
     const centre = box.getCenter(new THREE.Vector3());
     this.origin.set(centre.x, 0, box.max.z + VIEWING_DISTANCE);
-    const base = xr.getReferenceSpace();
-    xr.setReferenceSpace(
-      base.getOffsetReferenceSpace(new XRRigidTransform({ x: -this.origin.x, y: 0, z: -this.origin.z })),
-    );
+    this.viewport.user.position.copy(this.origin);
     this.session = session;
     this.button.textContent = 'Exit VR';
     session.addEventListener('end', () => {
       this.session = null;
+      this.viewport.user.position.set(0, 0, 0);
       this.button.textContent = 'Enter VR';
       this.viewport.resize();
     });
