@@ -37,7 +37,7 @@ export class DrawingPlane {
         depthTest: false,
         depthWrite: false,
         transparent: true,
-        opacity: 0.07,
+        opacity: 0.05,
         side: THREE.DoubleSide,
       }),
     );
@@ -109,7 +109,7 @@ export class DrawingPlane {
     this.marker.scale.setScalar(size);
     this.disc.position.copy(through);
     this.disc.quaternion.copy(camera.quaternion);
-    this.disc.scale.setScalar(0.45 * (this.selected()?.placement.scale.x ?? 1) * (this.selected()?.height ?? 1));
+    this.disc.scale.setScalar(0.35 * (this.selected()?.placement.scale.x ?? 1) * (this.selected()?.height ?? 1));
     this.anchor.position.copy(through);
     this.anchor.scale.setScalar(size * 0.35);
     for (const m of [this.marker, this.disc, this.anchor]) m.visible = true;

@@ -33,9 +33,13 @@ export function poseToRequest(joints, pose) {
 
 /** A solve answer as a pose: its joints by name over `base` (joints it does not list keep theirs). */
 export function poseFromSolve(joints, answer, base) {
+  // Same joints in the same order (the solver's): match by index, so that repeated names (BVH
+  // end sites) stay apart; otherwise by name.
+  const sameOrder =
+    answer.joints.length === joints.length && answer.joints.every((j, i) => j.name === joints[i].name);
   const byName = new Map(answer.joints.map((j) => [j.name, j]));
   return joints.map((j, i) => {
-    const solved = byName.get(j.name);
+    const solved = sameOrder ? answer.joints[i] : byName.get(j.name);
     return {
       translation: [...(solved?.translation ?? base[i].translation)],
       rotation: [...(solved?.rotation ?? base[i].rotation)],

@@ -233,4 +233,23 @@ describe('the page on the desktop', () => {
     await page.locator('#view').screenshot({ path: join(artifacts, 'desktop-two-characters.png') });
     assert.deepEqual(errors, []);
   });
+
+  test('the move gizmo drags the selected character without drawing a stroke', async () => {
+    await page.keyboard.press('Tab'); // back to the humanoid
+    assert.equal(await page.evaluate(() => window.rigfit.selected), 'c0');
+    const strokes = (await page.evaluate(() => window.rigfit.strokes())).length;
+    await page.keyboard.press('g');
+    const placement = () => page.evaluate(() => window.rigfit.characters[0].placement.position);
+    const before = await placement();
+    const at = await screenOf(page, before);
+    await page.mouse.move(at[0], at[1]);
+    await page.mouse.down();
+    for (let i = 1; i <= 10; i++) await page.mouse.move(at[0] + 8 * i, at[1]);
+    await page.mouse.up();
+    const after = await placement();
+    assert.ok(after[0] > before[0] + 0.1, `placement x ${before[0]} -> ${after[0]}`);
+    assert.equal((await page.evaluate(() => window.rigfit.strokes())).length, strokes, 'no stroke drawn');
+    await page.keyboard.press('Escape');
+    assert.deepEqual(errors, []);
+  });
 });
