@@ -67,8 +67,8 @@ fn percent_decode(path: &str) -> Option<String> {
     String::from_utf8(out).ok()
 }
 
-/// The embedded file a URL path names: `/` is `index.html`; `/app/...` and `/vendor/...`
-/// are files under those folders. `None` for anything else, including any path with an
+/// The embedded file a URL path names: `/` and `/index.html` are `index.html`; `/app/...`
+/// and `/vendor/...` are files under those folders. `None` for anything else, including any path with an
 /// empty, `.` or `..` segment or a backslash (after decoding).
 pub fn embedded_key(url_path: &str) -> Option<String> {
     if url_path == "/" {
@@ -78,6 +78,9 @@ pub fn embedded_key(url_path: &str) -> Option<String> {
     let rest = decoded.strip_prefix('/')?;
     let mut segments = rest.split('/');
     let top = segments.next()?;
+    if rest == "index.html" {
+        return Some(rest.to_string());
+    }
     if !matches!(top, "app" | "vendor") {
         return None;
     }
