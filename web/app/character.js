@@ -35,6 +35,21 @@ function boneGeometry() {
   return g;
 }
 
+/**
+ * How a character's mesh is shown. A file without materials gets a grey clay (glTF's default
+ * material is fully metallic, which is black without an environment map); a material without
+ * a metalness texture is made non-metallic for the same reason.
+ */
+function displayMaterial(material, json) {
+  if (!json.materials?.length) {
+    return new THREE.MeshStandardMaterial({ color: 0xb4b8c0, roughness: 0.7, metalness: 0 });
+  }
+  for (const m of Array.isArray(material) ? material : [material]) {
+    if (m.isMeshStandardMaterial && !m.metalnessMap) m.metalness = Math.min(m.metalness, 0.1);
+  }
+  return material;
+}
+
 function sideOf(joint) {
   if (joint.kind === 'helper') return 'helper';
   if (/left|(^|[^a-z])l([^a-z]|$)/i.test(joint.name)) return 'left';
@@ -95,6 +110,7 @@ export class Character {
         byIndex.set(association.nodes, object);
       }
       if (object.isSkinnedMesh) object.frustumCulled = false;
+      if (object.isMesh) object.material = displayMaterial(object.material, gltf.parser.json);
     });
     this.nodes = this.joints.map((j) => (j.node === undefined || j.node === null ? null : (byIndex.get(j.node) ?? null)));
     this.model = gltf.scene;

@@ -25,6 +25,11 @@ export class Editor extends EventTarget {
     this.playing = false;
     this.drawing = false;
     this.method = 'rigfit';
+    /**
+     * 'fixed': solves leave each root joint where it is (the character is placed with Move and
+     * Rotate; strokes pose its limbs and spine); 'free': the root may move and turn too.
+     */
+    this.rootMode = 'fixed';
     this.message = '';
     this.lastSolve = null;
     this.grab = null;
@@ -37,6 +42,7 @@ export class Editor extends EventTarget {
       onError: (message) => this.fail(message),
       onBusyChange: () => this.changed(),
       method: () => this.method,
+      bones: (character) => this.movableBones(character),
     });
   }
 
@@ -137,6 +143,21 @@ export class Editor extends EventTarget {
     const box = new THREE.Box3();
     for (const c of this.characters) box.union(c.worldBox());
     this.viewport.frame(box);
+  }
+
+  /**
+   * The joints a solve may move, or null for all. With the root fixed: all but the top skin
+   * joints (whose ancestors are all helper nodes, or who have none), the helpers above them and
+   * the end sites.
+   */
+  movableBones(character) {
+    if (this.rootMode === 'free') return null;
+    const joints = character.joints;
+    const belowSkin = []; // has a skin joint among its ancestors
+    joints.forEach((j, i) => {
+      belowSkin[i] = j.parent !== null && (joints[j.parent].kind === 'skin' || belowSkin[j.parent]);
+    });
+    return joints.filter((j, i) => belowSkin[i] && j.kind !== 'end_site').map((j) => j.name);
   }
 
   // ---- strokes ---------------------------------------------------------------------------

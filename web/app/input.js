@@ -43,6 +43,7 @@ export const COMMAND_KEYS = [
   ['b', false, 'export-bvh'],
   ['f', false, 'frame-all'],
   ['m', false, 'method'],
+  ['h', false, 'root'],
 ];
 
 /** The first shortcut of a command, for button tooltips. */
@@ -151,6 +152,7 @@ export class InputLayer {
       const picked = pickAt(screen);
       if (picked !== null && picked !== this.editor.selected?.id) {
         this.dispatch({ type: 'select', id: picked });
+        this.dispatch({ type: 'hover', screen });
         return;
       }
       drawingPointer = event.pointerId;

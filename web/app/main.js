@@ -41,6 +41,10 @@ const commands = {
   'export-glb': () => editor.exportSelected('glb'),
   'export-bvh': () => editor.exportSelected('bvh'),
   'frame-all': () => editor.frameAll(),
+  root: (mode) => {
+    editor.rootMode = mode ?? (editor.rootMode === 'fixed' ? 'free' : 'fixed');
+    editor.changed();
+  },
   method: (name) => {
     editor.method = name ?? (editor.method === 'rigfit' ? 'paper' : 'rigfit');
     editor.changed();

@@ -10,12 +10,16 @@ import { poseFromSolve, poseToRequest } from './pose.js';
 const MIN_INTERVAL_MS = 40;
 
 export class SolveQueue {
-  /** `onPose(character, pose)`, `onError(message)`, `onBusyChange(busy)`. */
-  constructor({ onPose, onError, onBusyChange, method }) {
+  /**
+   * `onPose(character, pose, answer)`, `onError(message)`, `onBusyChange(busy)`; `method()`:
+   * the solver's name; `bones(character)`: the joints that may move, or null for all.
+   */
+  constructor({ onPose, onError, onBusyChange, method, bones }) {
     this.onPose = onPose;
     this.onError = onError;
     this.onBusyChange = onBusyChange;
     this.method = method;
+    this.bones = bones;
     this.inFlight = null; // Promise
     this.waiting = new Set(); // characters asking for a solve
     this.lastSent = 0;
@@ -74,6 +78,8 @@ export class SolveQueue {
       strokes: strokes.map((s) => ({ points: s.points })),
       method: this.method(),
     };
+    const bones = this.bones(character);
+    if (bones) request.bones = bones;
     try {
       const answer = await api.solve(character.id, request);
       if (character.generation !== generation) return;

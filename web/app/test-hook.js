@@ -23,6 +23,9 @@ export function installTestHook({ editor, input, viewport, xr, ready }) {
     get method() {
       return editor.method;
     },
+    get rootMode() {
+      return editor.rootMode;
+    },
     get characters() {
       return editor.characters.map((c) => ({
         id: c.id,

@@ -71,13 +71,19 @@ export class PageUi {
     for (const m of ['rigfit', 'paper']) method.add(new Option(`solver: ${m}`, m));
     method.addEventListener('change', () => this.input.command('method', method.value));
     this.method = method;
+    const root = document.createElement('select');
+    root.id = 'root';
+    root.title = `Fixed: solving never moves the character's root (place it with Move / Rotate); free: strokes may move and turn the whole character [${shortcutOf('root')}]`;
+    for (const m of ['fixed', 'free']) root.add(new Option(`root: ${m}`, m));
+    root.addEventListener('change', () => this.input.command('root', root.value));
+    this.root = root;
     const vr = document.createElement('button');
     vr.type = 'button';
     vr.id = 'enter-vr';
     vr.hidden = true;
     vr.textContent = 'Enter VR';
     this.vrButton = vr;
-    box.append(method, vr);
+    box.append(method, root, vr);
     this.toolbar.append(box);
   }
 
@@ -133,6 +139,7 @@ export class PageUi {
     }
     this.toolbar.querySelector('[data-command="play"]').firstChild.textContent = e.playing ? 'Stop ' : 'Play ';
     this.method.value = e.method;
+    this.root.value = e.rootMode;
     this.drawTimeline();
   }
 

@@ -2,7 +2,7 @@
 // through playwright-core, open the page, and small helpers over window.rigfit.
 
 import { spawn } from 'node:child_process';
-import { mkdtempSync, mkdirSync, existsSync } from 'node:fs';
+import { existsSync, mkdirSync, mkdtempSync, readFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -99,6 +99,13 @@ export async function openPage(context, url, { init = [] } = {}) {
   const origin = new URL(url).origin;
   await page.route('**/*', (route) => {
     const u = route.request().url();
+    const path = u.startsWith(origin) ? new URL(u).pathname : null;
+    if (process.env.RIGFIT_WEB_FROM_DISK && path !== null && (path === '/' || path.startsWith('/app/'))) {
+      // Working on the page: its files from web/ rather than those built into the binary.
+      const file = join(root, 'web', path === '/' ? 'index.html' : path);
+      const type = { html: 'text/html', css: 'text/css', js: 'text/javascript' }[file.split('.').pop()];
+      return route.fulfill({ body: readFileSync(file), contentType: type });
+    }
     if (u.startsWith(origin) || u.startsWith('data:') || u.startsWith('blob:')) return route.continue();
     errors.push(`network request off the origin: ${u}`);
     return route.abort();
