@@ -226,13 +226,14 @@ describe('the page on the desktop', () => {
     const height = Math.max(...Object.values(b).map((p) => p[1])) - Math.min(...Object.values(b).map((p) => p[1]));
     // (Longer than the whole arm: rigfit's solver leaves a stroke shorter than the chain it
     // would match unmatched.)
-    let answer = null;
-    const onSolve = async (r) => {
-      if (r.url().endsWith('/solve')) answer = await r.json();
+    const answers = [];
+    const onSolve = (r) => {
+      if (r.url().endsWith('/solve')) answers.push(r.json());
     };
     page.on('response', onSolve);
     await drawStroke(page, line(b[arm], [0.15 * height, 0.42 * height, 0]));
     page.off('response', onSolve);
+    const answer = await answers.at(-1);
     // What the page shows is the solver's pose: joints where the server's report puts them.
     const shown = await page.evaluate((id) => window.rigfit.joints(id, 'file'), characters[1].id);
     for (const j of answer.joints) {
