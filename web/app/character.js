@@ -216,7 +216,6 @@ export class Character {
   setSelected(selected) {
     this.bones.material.opacity = selected ? 0.95 : 0.35;
     this.jointBalls.material.opacity = selected ? 0.95 : 0.35;
-    this.strokeView.visible = true;
   }
 
   /** Page-space positions of the joints at the shown pose. */

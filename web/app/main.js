@@ -86,7 +86,7 @@ picker.addEventListener('change', async () => {
 
 const ui = new PageUi(editor, input, gizmo);
 const xr = new XrSketching(viewport, editor, input, ui.vrButton);
-viewport.beforeRender.push((time) => editor.tick(performance.now()));
+viewport.beforeRender.push(() => editor.tick(performance.now()));
 
 const ready = (async () => {
   await editor.loadFromServer();

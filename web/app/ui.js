@@ -69,13 +69,19 @@ export class PageUi {
     method.id = 'method';
     method.title = `Solver: rigfit's, or the paper's matching and aligning [${shortcutOf('method')}]`;
     for (const m of ['rigfit', 'paper']) method.add(new Option(`solver: ${m}`, m));
-    method.addEventListener('change', () => this.input.command('method', method.value));
+    method.addEventListener('change', () => {
+      method.blur(); // keys back to the shortcuts
+      this.input.command('method', method.value);
+    });
     this.method = method;
     const root = document.createElement('select');
     root.id = 'root';
     root.title = `Fixed: solving never moves the character's root (place it with Move / Rotate); free: strokes may move and turn the whole character [${shortcutOf('root')}]`;
     for (const m of ['fixed', 'free']) root.add(new Option(`root: ${m}`, m));
-    root.addEventListener('change', () => this.input.command('root', root.value));
+    root.addEventListener('change', () => {
+      root.blur();
+      this.input.command('root', root.value);
+    });
     this.root = root;
     const vr = document.createElement('button');
     vr.type = 'button';

@@ -276,4 +276,40 @@ describe('the page on the desktop', () => {
     await page.keyboard.press('Escape');
     assert.deepEqual(errors, []);
   });
+
+  test('a pen and a finger draw too (pointer events of every kind)', async () => {
+    const cdp = await page.context().newCDPSession(page);
+    const strokes = async () => (await page.evaluate(() => window.rigfit.strokes())).length;
+    const start = await strokes();
+    const arm = (await joints(page)).LeftArm;
+    const screen = [];
+    for (const p of line(arm, [0.2 * scale, 0.65 * scale, 0], 8)) screen.push(await screenOf(page, p));
+
+    const pen = (type, [x, y]) =>
+      cdp.send('Input.dispatchMouseEvent', {
+        type,
+        x,
+        y,
+        button: 'left',
+        buttons: type === 'mouseReleased' ? 0 : 1,
+        clickCount: 1,
+        pointerType: 'pen',
+      });
+    await pen('mousePressed', screen[0]);
+    for (const s of screen.slice(1)) await pen('mouseMoved', s);
+    await pen('mouseReleased', screen.at(-1));
+    await settle(page);
+    assert.equal(await strokes(), start + 1, 'pen stroke');
+
+    const touch = (type, [x, y]) =>
+      cdp.send('Input.dispatchTouchEvent', { type, touchPoints: type === 'touchEnd' ? [] : [{ x, y, id: 1 }] });
+    await touch('touchStart', screen[0]);
+    for (const s of screen.slice(1)) await touch('touchMove', s);
+    await touch('touchEnd', screen.at(-1));
+    await settle(page);
+    assert.equal(await strokes(), start + 2, 'touch stroke');
+    assert.ok((await page.evaluate(() => window.rigfit.lastActions)).includes('strokeEnd'));
+    await cdp.detach();
+    assert.deepEqual(errors, []);
+  });
 });
