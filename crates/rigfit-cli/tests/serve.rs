@@ -103,6 +103,19 @@ fn serve_loads_the_rig_given_as_c0() {
 }
 
 #[test]
+fn serve_on_a_loopback_host_name_gives_no_warning() {
+    let (mut child, addr, _) = start(&["--host", "localhost"]);
+    assert!(addr.ip().is_loopback());
+    let (status, _) = http_get(addr, "/api/characters");
+    let mut stderr = child.stderr.take().expect("stderr");
+    assert_eq!(terminate(child), Some(0));
+    let mut err = String::new();
+    stderr.read_to_string(&mut err).expect("stderr");
+    assert_eq!(status, 200);
+    assert!(!err.contains("warning"), "{err}");
+}
+
+#[test]
 fn serve_with_a_bad_rig_is_one_line_and_exit_2() {
     let missing = std::path::Path::new("/nonexistent.glb");
     let o = rigfit(&["serve", "/nonexistent.glb", "--port", "0"]);
