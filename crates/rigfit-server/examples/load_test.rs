@@ -69,8 +69,13 @@ fn main() -> ExitCode {
         std::thread::available_parallelism().map_or(1, usize::from)
     );
     let limit = Duration::from_secs(600);
+    // One client first: the time one solve takes with the server otherwise idle.
+    let alone = solve_load(server.addr, &workloads, 1, 20, limit);
+    println!("one client:        {}", alone.summary());
+    println!("                   {}", alone.by_label());
     let solves = solve_load(server.addr, &workloads, clients, requests, limit);
     println!("solves:            {}", solves.summary());
+    println!("                   {}", solves.by_label());
     let rounds = requests;
     let (mixed, bad) = abuse_load(server.addr, &workloads, clients, rounds, limit);
     println!("mixed, valid only: {}", mixed.summary());
@@ -78,7 +83,12 @@ fn main() -> ExitCode {
         "bad requests:      {bad} of {} refused with their 4xx and an error line",
         rounds - rounds.div_ceil(8)
     );
-    let failures: Vec<&String> = solves.failures.iter().chain(&mixed.failures).collect();
+    let failures: Vec<&String> = alone
+        .failures
+        .iter()
+        .chain(&solves.failures)
+        .chain(&mixed.failures)
+        .collect();
     for f in failures.iter().take(20) {
         eprintln!("FAILED {f}");
     }

@@ -109,6 +109,9 @@ pub fn solve_bodies(rig: &Rig, count: usize, seed: u64) -> Vec<String> {
 pub struct LoadReport {
     /// Latency of every request that got its expected answer.
     pub latencies: Vec<Duration>,
+    /// The same latencies, each with the label of its request (the rig, or the kind of bad
+    /// request).
+    pub labeled: Vec<(String, Duration)>,
     pub wall: Duration,
     /// One line per request that did not get its expected answer.
     pub failures: Vec<String>,
@@ -116,16 +119,48 @@ pub struct LoadReport {
     pub sent: usize,
 }
 
+/// The `q` quantile of `latencies` (nearest rank).
+pub fn percentile(latencies: &[Duration], q: f64) -> Duration {
+    let mut sorted = latencies.to_vec();
+    sorted.sort();
+    if sorted.is_empty() {
+        return Duration::ZERO;
+    }
+    let rank = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
+    sorted[rank - 1]
+}
+
 impl LoadReport {
     /// The `q` quantile of the latencies (nearest rank).
     pub fn percentile(&self, q: f64) -> Duration {
-        let mut sorted = self.latencies.clone();
-        sorted.sort();
-        if sorted.is_empty() {
-            return Duration::ZERO;
-        }
-        let rank = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
-        sorted[rank - 1]
+        percentile(&self.latencies, q)
+    }
+
+    /// Latency percentiles (p50, p95, max) per label, in milliseconds.
+    pub fn by_label(&self) -> String {
+        let mut labels: Vec<&str> = self.labeled.iter().map(|(l, _)| l.as_str()).collect();
+        labels.sort_unstable();
+        labels.dedup();
+        let ms = |d: Duration| d.as_secs_f64() * 1000.0;
+        labels
+            .iter()
+            .map(|label| {
+                let own: Vec<Duration> = self
+                    .labeled
+                    .iter()
+                    .filter(|(l, _)| l == label)
+                    .map(|(_, d)| *d)
+                    .collect();
+                format!(
+                    "{label} ({}): p50 {:.1} ms, p95 {:.1} ms, max {:.1} ms",
+                    own.len(),
+                    ms(percentile(&own, 0.5)),
+                    ms(percentile(&own, 0.95)),
+                    ms(percentile(&own, 1.0)),
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
     }
 
     /// Answered requests per second of wall time.
@@ -150,14 +185,14 @@ impl LoadReport {
     }
 }
 
-/// Runs `requests` jobs on `clients` threads; job `i` is `job(i)`, which answers whether the
-/// request got what it expected (or a line saying what went wrong). Stops sending after
+/// Runs `requests` jobs on `clients` threads; job `i` is `job(i)`, which answers the label of
+/// a request that got what it expected, or a line saying what went wrong. Stops sending after
 /// `time_limit`.
 fn run_clients(
     clients: usize,
     requests: usize,
     time_limit: Duration,
-    job: impl Fn(usize) -> Result<(), String> + Sync,
+    job: impl Fn(usize) -> Result<String, String> + Sync,
 ) -> LoadReport {
     let next = AtomicUsize::new(0);
     let report = Mutex::new(LoadReport::default());
@@ -182,7 +217,10 @@ fn run_clients(
                     let mut r = report.lock().expect("report");
                     r.sent += 1;
                     match outcome {
-                        Ok(()) => r.latencies.push(latency),
+                        Ok(label) => {
+                            r.latencies.push(latency);
+                            r.labeled.push((label, latency));
+                        }
                         Err(line) => r.failures.push(format!("request {i}: {line}")),
                     }
                 }
@@ -226,8 +264,8 @@ fn check_error(answer: std::io::Result<HttpAnswer>, status: u16) -> Result<(), S
     }
 }
 
-/// Solve request `i` of the round-robin over the workloads.
-fn solve_job(addr: SocketAddr, workloads: &[Workload], i: usize) -> Result<(), String> {
+/// Solve request `i` of the round-robin over the workloads; answers the workload's label.
+fn solve_job(addr: SocketAddr, workloads: &[Workload], i: usize) -> Result<String, String> {
     let w = &workloads[i % workloads.len()];
     let body = &w.bodies[(i / workloads.len()) % w.bodies.len()];
     check_solve(request(
@@ -236,6 +274,7 @@ fn solve_job(addr: SocketAddr, workloads: &[Workload], i: usize) -> Result<(), S
         &format!("/api/characters/{}/solve", w.character),
         body.as_bytes(),
     ))
+    .map(|()| w.label.clone())
     .map_err(|e| format!("{}: {e}", w.label))
 }
 
@@ -268,21 +307,11 @@ pub fn abuse_load(
     time_limit: Duration,
 ) -> (LoadReport, usize) {
     let bad_answered = AtomicUsize::new(0);
-    let valid_latencies = Mutex::new(Vec::new());
     let mut report = run_clients(clients, rounds, time_limit, |i| {
         let character = &workloads[i % workloads.len()].character;
-        let outcome = match i % ABUSE_KINDS {
-            0 => {
-                let t0 = Instant::now();
-                let r = solve_job(addr, workloads, i / ABUSE_KINDS);
-                if r.is_ok() {
-                    valid_latencies
-                        .lock()
-                        .expect("latencies")
-                        .push(t0.elapsed());
-                }
-                return r;
-            }
+        let kind = i % ABUSE_KINDS;
+        let outcome = match kind {
+            0 => return solve_job(addr, workloads, i / ABUSE_KINDS),
             1 => check_error(
                 request(
                     addr,
@@ -327,8 +356,14 @@ pub fn abuse_load(
         if outcome.is_ok() {
             bad_answered.fetch_add(1, Ordering::Relaxed);
         }
-        outcome
+        outcome.map(|()| format!("bad request {kind}"))
     });
-    report.latencies = valid_latencies.into_inner().expect("latencies");
+    // The report's latencies are the valid solves'.
+    report.latencies = report
+        .labeled
+        .iter()
+        .filter(|(label, _)| !label.starts_with("bad request"))
+        .map(|(_, d)| *d)
+        .collect();
     (report, bad_answered.into_inner())
 }
