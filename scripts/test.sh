@@ -26,5 +26,6 @@ cargo test --workspace --quiet 2>&1 | tee target/cargo-test.log
 awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($i ~ /^passed/) p += $(i-1); if ($i ~ /^failed/) f += $(i-1) } }
      END { printf "%d passed, %d failed\n", p, f; exit (f > 0 || p == 0) }' target/cargo-test.log
 
+scripts/test-web.sh
 echo "== python package and Blender extension"
 scripts/test-python.sh

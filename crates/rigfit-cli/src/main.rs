@@ -31,6 +31,8 @@ enum Command {
     Render(commands::render::RenderArgs),
     /// Track a reference mesh through a sequence of point clouds or meshes.
     Surface(commands::surface::SurfaceArgs),
+    /// The sketching page in a browser: serve it and its API on 127.0.0.1 (docs/serve-api.md).
+    Serve(commands::serve::ServeArgs),
 }
 
 fn main() -> ExitCode {
@@ -52,6 +54,7 @@ fn main() -> ExitCode {
         Command::DemoRig(args) => commands::demo_rig::run(&args),
         Command::Render(args) => commands::render::run(&args),
         Command::Surface(args) => commands::surface::run(&args),
+        Command::Serve(args) => commands::serve::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

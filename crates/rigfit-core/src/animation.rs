@@ -159,6 +159,52 @@ impl Animation {
         times.len()
     }
 
+    /// An animation through `keys` (time in seconds, pose), sorted by time: every joint's
+    /// translation, rotation and scale keyed at each time, interpolated linearly (rotations
+    /// spherically).
+    pub fn through_poses(name: impl Into<String>, keys: &[(f64, Pose)]) -> Self {
+        let joints = keys.iter().map(|(_, p)| p.local.len()).min().unwrap_or(0);
+        let times: Vec<f64> = keys.iter().map(|(t, _)| *t).collect();
+        let mut channels = Vec::with_capacity(3 * joints);
+        for joint in 0..joints {
+            for target in [
+                ChannelTarget::Translation,
+                ChannelTarget::Rotation,
+                ChannelTarget::Scale,
+            ] {
+                let values = keys
+                    .iter()
+                    .map(|(_, p)| {
+                        let trs = &p.local[joint];
+                        match target {
+                            ChannelTarget::Translation => {
+                                let v = trs.translation;
+                                [v.x, v.y, v.z, 0.0]
+                            }
+                            ChannelTarget::Rotation => quat_to_xyzw(&trs.rotation),
+                            ChannelTarget::Scale => {
+                                let v = trs.scale;
+                                [v.x, v.y, v.z, 0.0]
+                            }
+                        }
+                    })
+                    .collect();
+                channels.push(AnimationChannel {
+                    joint,
+                    target,
+                    interpolation: Interpolation::Linear,
+                    times: times.clone(),
+                    values,
+                });
+            }
+        }
+        Self {
+            name: name.into(),
+            channels,
+            frame_time: None,
+        }
+    }
+
     /// `base` with every animated property replaced by its value at time `t`.
     pub fn sample(&self, base: &Pose, t: f64) -> Pose {
         let mut pose = base.clone();
@@ -219,5 +265,25 @@ mod tests {
         let b = quat_to_xyzw(&Quat::from_euler_angles(0.0, 1.0, 0.0));
         let mid = quat_from_xyzw(slerp(a, b, 0.5));
         assert!((mid.angle() - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn through_poses_hits_every_key_and_interpolates_between() {
+        use crate::math::Trs;
+        let pose = |x: f64, angle: f64| Pose {
+            local: vec![Trs::new(
+                Vector3::new(x, 0.0, 0.0),
+                Quat::from_euler_angles(0.0, angle, 0.0),
+            )],
+        };
+        let keys = [(0.0, pose(0.0, 0.0)), (1.0, pose(2.0, 1.0))];
+        let anim = Animation::through_poses("rigfit", &keys);
+        assert_eq!(anim.channels.len(), 3);
+        let base = pose(9.0, 0.0);
+        let end = anim.sample(&base, 1.0);
+        assert!((end.local[0].translation.x - 2.0).abs() < 1e-12);
+        let mid = anim.sample(&base, 0.5);
+        assert!((mid.local[0].translation.x - 1.0).abs() < 1e-12);
+        assert!((mid.local[0].rotation.angle() - 0.5).abs() < 1e-12);
     }
 }

@@ -7,6 +7,7 @@
 pub mod bvh;
 pub mod error;
 pub mod gltf;
+pub mod json;
 pub mod obj;
 pub mod ply;
 pub mod report;

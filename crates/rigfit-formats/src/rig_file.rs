@@ -3,11 +3,11 @@
 
 use std::path::{Path, PathBuf};
 
-use rigfit_core::{Pose, Rig};
+use rigfit_core::{Animation, Pose, Rig};
 
-use crate::bvh::{BvhDocument, read_bvh};
-use crate::error::{FormatError, ParseError, extension};
-use crate::gltf::{GltfDocument, read_gltf};
+use crate::bvh::{BvhDocument, parse_bvh};
+use crate::error::{FormatError, ParseError, extension, read_bytes, write_atomic};
+use crate::gltf::{GltfDocument, parse_gltf};
 
 /// Which BVH frame a rig starts from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -49,11 +49,85 @@ pub struct RigOptions {
     pub start_frame: StartFrame,
 }
 
-/// Reads a `.glb`, `.gltf` or `.bvh` rig.
+/// A file type rigfit reads and writes rigs in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RigFormat {
+    Glb,
+    Gltf,
+    Bvh,
+}
+
+impl RigFormat {
+    /// The format of a file name's extension (`None` for one rigfit does not read as a rig).
+    pub fn from_path(path: &Path) -> Option<Self> {
+        match extension(path).as_str() {
+            "glb" => Some(Self::Glb),
+            "gltf" => Some(Self::Gltf),
+            "bvh" => Some(Self::Bvh),
+            _ => None,
+        }
+    }
+
+    /// The file extension (and the name `rigfit serve` reports): `glb`, `gltf` or `bvh`.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Self::Glb => "glb",
+            Self::Gltf => "gltf",
+            Self::Bvh => "bvh",
+        }
+    }
+}
+
+/// Reads a `.glb`, `.gltf` or `.bvh` rig; external glTF buffers are read relative to it.
 pub fn read_rig(path: &Path, options: &RigOptions) -> Result<RigFile, FormatError> {
-    match extension(path).as_str() {
-        "glb" | "gltf" => {
-            let doc = read_gltf(path, options.skin.as_deref())?;
+    // The type is checked before reading, so a wrong one is named even for a missing file.
+    if RigFormat::from_path(path).is_none() {
+        return Err(unsupported_rig(path));
+    }
+    let bytes = read_bytes(path)?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut load = |uri: &str| -> Result<Vec<u8>, String> {
+        let file = dir.join(crate::gltf::percent_decode(uri));
+        std::fs::read(&file).map_err(|e| format!("cannot read '{}': {e}", file.display()))
+    };
+    let mut rig_file = rig_from_bytes(&bytes, path, options, &mut load)?;
+    if let RigSource::Gltf(doc) = &mut rig_file.source {
+        doc.source_dir = Some(dir);
+    }
+    Ok(rig_file)
+}
+
+/// Parses the bytes of a rig file held in memory (an upload); `name` is the file's name: its
+/// extension gives the format and errors name it. A `.gltf` must embed its buffers (data
+/// URIs): nothing is read from the file system.
+pub fn parse_rig(bytes: &[u8], name: &Path, options: &RigOptions) -> Result<RigFile, FormatError> {
+    let mut no_files = |uri: &str| -> Result<Vec<u8>, String> {
+        Err(format!(
+            "external buffer '{uri}' cannot be read from memory (embed it as a data URI or use .glb)"
+        ))
+    };
+    rig_from_bytes(bytes, name, options, &mut no_files)
+}
+
+fn unsupported_rig(path: &Path) -> FormatError {
+    FormatError::Unsupported {
+        path: path.to_path_buf(),
+        expected: "a rig: .glb, .gltf or .bvh".into(),
+    }
+}
+
+/// The one code path of [`read_rig`] and [`parse_rig`]: `load_uri` supplies external glTF
+/// buffers.
+fn rig_from_bytes(
+    bytes: &[u8],
+    path: &Path,
+    options: &RigOptions,
+    load_uri: &mut dyn FnMut(&str) -> Result<Vec<u8>, String>,
+) -> Result<RigFile, FormatError> {
+    match RigFormat::from_path(path) {
+        Some(RigFormat::Glb | RigFormat::Gltf) => {
+            let doc = parse_gltf(bytes, load_uri, options.skin.as_deref())
+                .map_err(|e| FormatError::parse(path, e))?;
             let rig = doc.require_rig().map_err(|e| FormatError::parse(path, e))?;
             let rebuilt = rigfit_core::hierarchy::webxr_hand_parents(&rig.skeleton)
                 .and_then(|parents| rigfit_core::hierarchy::reparent(rig, &parents));
@@ -68,8 +142,8 @@ pub fn read_rig(path: &Path, options: &RigOptions) -> Result<RigFile, FormatErro
                 file_index,
             })
         }
-        "bvh" => {
-            let doc = read_bvh(path)?;
+        Some(RigFormat::Bvh) => {
+            let doc = parse_bvh(bytes).map_err(|e| FormatError::parse(path, e))?;
             let start = match options.start_frame {
                 StartFrame::Rest => None,
                 StartFrame::First => (!doc.frames.is_empty()).then_some(0),
@@ -97,10 +171,7 @@ pub fn read_rig(path: &Path, options: &RigOptions) -> Result<RigFile, FormatErro
                 file_index: None,
             })
         }
-        _ => Err(FormatError::Unsupported {
-            path: path.to_path_buf(),
-            expected: "a rig: .glb, .gltf or .bvh".into(),
-        }),
+        None => Err(unsupported_rig(path)),
     }
 }
 
@@ -125,21 +196,34 @@ impl RigFile {
         }
     }
 
-    /// Writes the rig posed as `pose` to `out`:
-    /// - `.glb`/`.gltf` from a glTF source: the input file with the pose as node transforms
-    ///   and as a key of the `rigfit` animation: at `frame` (at 24 frames per second, keeping
-    ///   the animation's other keys) or, without a frame, as its only key at time 0;
-    /// - `.bvh` from a BVH source: the file's skeleton and channels with the pose as frame
-    ///   `frame` (other frames kept) or, without a frame, as the only frame;
-    /// - `.bvh` from a glTF source, `.glb` from a BVH source: the rig written anew.
+    /// Writes the rig posed as `pose` to `out` (the bytes of [`Self::pose_bytes`]).
     pub fn write_pose(
         &self,
         out: &Path,
         pose: &Pose,
         frame: Option<usize>,
     ) -> Result<(), FormatError> {
-        match (extension(out).as_str(), &self.source) {
-            ("glb" | "gltf", RigSource::Gltf(doc)) => {
+        write_atomic(out, &self.pose_bytes(out, pose, frame)?)
+    }
+
+    /// The bytes of the rig posed as `pose`, in the format of `out`'s extension:
+    /// - `.glb`/`.gltf` from a glTF source: the input file with the pose as node transforms
+    ///   and as a key of the `rigfit` animation: at `frame` (at 24 frames per second, keeping
+    ///   the animation's other keys) or, without a frame, as its only key at time 0;
+    /// - `.bvh` from a BVH source: the file's skeleton and channels with the pose as frame
+    ///   `frame` (other frames kept) or, without a frame, as the only frame;
+    /// - `.bvh` from a glTF source, `.glb` from a BVH source: the rig written anew.
+    ///
+    /// `out` names the output in errors; relative image paths of a glTF are made reachable
+    /// from its directory.
+    pub fn pose_bytes(
+        &self,
+        out: &Path,
+        pose: &Pose,
+        frame: Option<usize>,
+    ) -> Result<Vec<u8>, FormatError> {
+        match (RigFormat::from_path(out), &self.source) {
+            (Some(format @ (RigFormat::Glb | RigFormat::Gltf)), RigSource::Gltf(doc)) => {
                 let file_pose = self.file_pose(pose);
                 let keys = match frame {
                     Some(n) => {
@@ -155,9 +239,9 @@ impl RigFile {
                     }
                     None => vec![(0.0, file_pose.clone())],
                 };
-                doc.write(out, &file_pose, &keys)
+                Ok(doc.to_bytes(format == RigFormat::Glb, &file_pose, &keys, output_dir(out)))
             }
-            ("bvh", RigSource::Bvh(doc)) => {
+            (Some(RigFormat::Bvh), RigSource::Bvh(doc)) => {
                 let mut doc = doc.clone();
                 match frame {
                     Some(n) => doc.set_frame_from_pose(n, pose),
@@ -166,66 +250,205 @@ impl RigFile {
                         doc.set_frame_from_pose(0, pose);
                     }
                 }
-                doc.write(out)
+                Ok(doc.to_bvh_string().into_bytes())
             }
-            ("bvh", RigSource::Gltf(_)) => BvhDocument::from_skeleton(
+            (Some(RigFormat::Bvh), RigSource::Gltf(_)) => Ok(BvhDocument::from_skeleton(
                 &self.rig.skeleton,
                 std::slice::from_ref(pose),
                 1.0 / crate::gltf::FRAMES_PER_SECOND,
             )
-            .write(out),
-            ("glb", RigSource::Bvh(_)) => {
+            .to_bvh_string()
+            .into_bytes()),
+            (Some(RigFormat::Glb), RigSource::Bvh(_)) => {
                 let mut rig = self.rig.clone();
                 rig.pose = pose.clone();
-                crate::gltf::write_rig_glb(out, &rig)
+                Ok(crate::gltf::rig_to_glb(&rig))
             }
-            _ => Err(FormatError::Unsupported {
-                path: out.to_path_buf(),
-                expected: match self.source {
-                    RigSource::Gltf(_) => "an output rig: .glb, .gltf or .bvh".into(),
-                    RigSource::Bvh(_) => "an output rig: .bvh or .glb".into(),
-                },
-            }),
+            _ => Err(self.unsupported_output(out)),
+        }
+    }
+
+    fn unsupported_output(&self, out: &Path) -> FormatError {
+        FormatError::Unsupported {
+            path: out.to_path_buf(),
+            expected: match self.source {
+                RigSource::Gltf(_) => "an output rig: .glb, .gltf or .bvh".into(),
+                RigSource::Bvh(_) => "an output rig: .bvh or .glb".into(),
+            },
         }
     }
 }
 
+/// The directory of an output path (`None` for a bare file name).
+fn output_dir(out: &Path) -> Option<&Path> {
+    out.parent().filter(|d| !d.as_os_str().is_empty())
+}
+
 impl RigFile {
-    /// Writes the rig with one pose per time step to `out`, `1 / fps` seconds apart:
+    /// Writes the rig with one pose per time step to `out` (the bytes of
+    /// [`Self::poses_bytes`]).
+    pub fn write_poses(&self, out: &Path, poses: &[Pose], fps: f64) -> Result<(), FormatError> {
+        write_atomic(out, &self.poses_bytes(out, poses, fps)?)
+    }
+
+    /// The bytes of the rig with one pose per time step, `1 / fps` seconds apart, in the
+    /// format of `out`'s extension:
     /// - `.glb`/`.gltf` from a glTF source: the input file with the last pose as node
     ///   transforms and every pose as a key of the `rigfit` animation (replacing it);
     /// - `.bvh` from a BVH source: the file's skeleton and channels, one frame per pose;
     /// - `.bvh` from a glTF source, `.glb` from a BVH source: the rig written anew (a glTF
     ///   written anew holds the last pose).
-    pub fn write_poses(&self, out: &Path, poses: &[Pose], fps: f64) -> Result<(), FormatError> {
+    pub fn poses_bytes(
+        &self,
+        out: &Path,
+        poses: &[Pose],
+        fps: f64,
+    ) -> Result<Vec<u8>, FormatError> {
         let Some(last) = poses.last() else {
             return Err(FormatError::parse(
                 out,
                 ParseError::new("poses", "nothing to write: no pose"),
             ));
         };
-        match (extension(out).as_str(), &self.source) {
-            ("glb" | "gltf", RigSource::Gltf(doc)) => {
+        match (RigFormat::from_path(out), &self.source) {
+            (Some(format @ (RigFormat::Glb | RigFormat::Gltf)), RigSource::Gltf(doc)) => {
                 let keys: Vec<(f64, Pose)> = poses
                     .iter()
                     .enumerate()
                     .map(|(k, p)| (k as f64 / fps, self.file_pose(p)))
                     .collect();
-                doc.write(out, &self.file_pose(last), &keys)
+                Ok(doc.to_bytes(
+                    format == RigFormat::Glb,
+                    &self.file_pose(last),
+                    &keys,
+                    output_dir(out),
+                ))
             }
-            ("bvh", RigSource::Bvh(doc)) => {
+            (Some(RigFormat::Bvh), RigSource::Bvh(doc)) => {
                 let mut doc = doc.clone();
                 doc.frames.clear();
                 doc.frame_time = 1.0 / fps;
                 for (k, pose) in poses.iter().enumerate() {
                     doc.set_frame_from_pose(k, pose);
                 }
-                doc.write(out)
+                Ok(doc.to_bvh_string().into_bytes())
             }
-            ("bvh", RigSource::Gltf(_)) => {
-                BvhDocument::from_skeleton(&self.rig.skeleton, poses, 1.0 / fps).write(out)
+            (Some(RigFormat::Bvh), RigSource::Gltf(_)) => {
+                Ok(
+                    BvhDocument::from_skeleton(&self.rig.skeleton, poses, 1.0 / fps)
+                        .to_bvh_string()
+                        .into_bytes(),
+                )
             }
-            _ => self.write_pose(out, last, None),
+            _ => self.pose_bytes(out, last, None),
+        }
+    }
+
+    /// The rig as a `format` file with `pose` as its stored pose and `keys` (frame number,
+    /// pose), sorted by frame with no frame twice, as the `rigfit` animation at
+    /// `frame / fps` seconds:
+    /// - glTF (`.glb`/`.gltf`) from a glTF source: the input file with `pose` as node
+    ///   transforms and the keys as its `rigfit` animation (none when there are no keys);
+    /// - glTF from a BVH source: the rig written anew, its motion kept and the keys added as
+    ///   the `rigfit` animation;
+    /// - `.bvh`: one frame per frame number from 0 to the last key, the poses between keys
+    ///   interpolated (before the first key, the first key's pose); with no keys, `pose` as
+    ///   the only frame. A BVH source keeps its skeleton and channels.
+    ///
+    /// `name` names the output in errors.
+    pub fn keyed_bytes(
+        &self,
+        format: RigFormat,
+        name: &Path,
+        pose: &Pose,
+        keys: &[(usize, Pose)],
+        fps: f64,
+    ) -> Result<Vec<u8>, FormatError> {
+        if !(fps.is_finite() && fps > 0.0) {
+            return Err(FormatError::parse(
+                name,
+                ParseError::new("fps", format!("must be a positive number, not {fps}")),
+            ));
+        }
+        let timed: Vec<(f64, Pose)> = keys
+            .iter()
+            .map(|(frame, p)| (*frame as f64 / fps, p.clone()))
+            .collect();
+        match (format, &self.source) {
+            (RigFormat::Glb | RigFormat::Gltf, RigSource::Gltf(doc)) => {
+                let file_keys: Vec<(f64, Pose)> =
+                    timed.iter().map(|(t, p)| (*t, self.file_pose(p))).collect();
+                Ok(doc.to_bytes(
+                    format == RigFormat::Glb,
+                    &self.file_pose(pose),
+                    &file_keys,
+                    None,
+                ))
+            }
+            (RigFormat::Glb | RigFormat::Gltf, RigSource::Bvh(_)) => {
+                let mut rig = self.rig.clone();
+                rig.pose = pose.clone();
+                rig.animations
+                    .retain(|a| a.name != crate::gltf::RIGFIT_ANIMATION);
+                if !timed.is_empty() {
+                    rig.animations.push(Animation::through_poses(
+                        crate::gltf::RIGFIT_ANIMATION,
+                        &timed,
+                    ));
+                }
+                Ok(match format {
+                    RigFormat::Glb => crate::gltf::rig_to_glb(&rig),
+                    _ => crate::gltf::rig_to_gltf(&rig),
+                })
+            }
+            (RigFormat::Bvh, _) => {
+                let frames = match keys.last() {
+                    None => vec![pose.clone()],
+                    Some((last, _)) => {
+                        let animation = Animation::through_poses("keys", &timed);
+                        (0..=*last)
+                            .map(|k| animation.sample(pose, k as f64 / fps))
+                            .collect()
+                    }
+                };
+                match &self.source {
+                    RigSource::Bvh(doc) => {
+                        let mut doc = doc.clone();
+                        doc.frames.clear();
+                        doc.frame_time = 1.0 / fps;
+                        for (k, frame) in frames.iter().enumerate() {
+                            doc.set_frame_from_pose(k, frame);
+                        }
+                        Ok(doc.to_bvh_string().into_bytes())
+                    }
+                    RigSource::Gltf(_) => {
+                        Ok(
+                            BvhDocument::from_skeleton(&self.rig.skeleton, &frames, 1.0 / fps)
+                                .to_bvh_string()
+                                .into_bytes(),
+                        )
+                    }
+                }
+            }
+        }
+    }
+
+    /// A `.glb` to show the rig in its stored pose: the glTF file itself (as GLB) when its
+    /// hierarchy is the rig's, else the rig written anew (a BVH; a flat hand rebuilt as a
+    /// tree). Joint `j` of [`Self::rig`] is its node `display_nodes()[j]`.
+    pub fn display_glb(&self) -> Vec<u8> {
+        match (&self.source, &self.file_index) {
+            (RigSource::Gltf(doc), None) => doc.to_glb(),
+            _ => crate::gltf::rig_to_glb(&self.rig),
+        }
+    }
+
+    /// For each joint of [`Self::rig`], its node in [`Self::display_glb`].
+    pub fn display_nodes(&self) -> Vec<usize> {
+        match (&self.source, &self.file_index) {
+            (RigSource::Gltf(doc), None) => doc.joint_nodes.clone(),
+            // rig_to_glb writes joint j as node j.
+            _ => (0..self.rig.skeleton.len()).collect(),
         }
     }
 }

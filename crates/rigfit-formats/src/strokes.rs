@@ -14,13 +14,18 @@ use rigfit_core::{Point3, Stroke};
 use serde_json::Value;
 
 use crate::error::{FormatError, ParseError, read_bytes, write_atomic};
+use crate::json::parse_json;
 
 /// Parses a strokes file. There must be at least one stroke, each with at least 2 points of
 /// 3 finite numbers, and a `bones` list, when given, must name at least one bone.
 pub fn parse_strokes(bytes: &[u8]) -> Result<Vec<Stroke>, ParseError> {
-    let bytes = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(bytes);
-    let doc: Value = serde_json::from_slice(bytes).map_err(|e| json_error(bytes, &e))?;
-    let Value::Object(top) = &doc else {
+    strokes_from_json(&parse_json(bytes)?)
+}
+
+/// The strokes of a parsed strokes document (or of any JSON object with a `"strokes"` list,
+/// such as a `rigfit serve` solve request), with the checks of [`parse_strokes`].
+pub fn strokes_from_json(doc: &Value) -> Result<Vec<Stroke>, ParseError> {
+    let Value::Object(top) = doc else {
         return Err(ParseError::new(
             "top level",
             "expected a JSON object with a \"strokes\" list",
@@ -127,42 +132,6 @@ fn parse_point(place: &str, value: &Value) -> Result<Point3, ParseError> {
         }
     }
     Ok(Point3::from(p))
-}
-
-/// Turns a serde_json error into a one-line error placed at its line and column.
-fn json_error(bytes: &[u8], e: &serde_json::Error) -> ParseError {
-    let place = format!("line {}, column {}", e.line(), e.column());
-    let full = e.to_string();
-    let suffix = format!(" at line {} column {}", e.line(), e.column());
-    let mut problem = full
-        .strip_suffix(&suffix)
-        .unwrap_or(&full)
-        .replace('\n', " ");
-    if e.is_syntax() && non_finite_literal_at(bytes, e.line(), e.column()) {
-        problem = "not a finite number: JSON has no NaN or Infinity".to_string();
-    } else if problem == "number out of range" {
-        problem = "a number is out of range (too large to be finite)".to_string();
-    } else if !e.is_eof() {
-        problem = format!("not valid JSON: {problem}");
-    } else {
-        problem = format!("not valid JSON (it ends early): {problem}");
-    }
-    ParseError::new(place, problem)
-}
-
-/// True when a `NaN` / `Infinity` literal (which JSON does not allow) is at or just before
-/// the 1-based `line` and `column` serde_json reported.
-fn non_finite_literal_at(bytes: &[u8], line: usize, column: usize) -> bool {
-    let Some(text) = bytes.split(|&b| b == b'\n').nth(line.saturating_sub(1)) else {
-        return false;
-    };
-    let col = column.min(text.len());
-    (col.saturating_sub(3)..=col).any(|start| {
-        let tail = &text[start..];
-        [&b"NaN"[..], b"nan", b"Infinity", b"inf"]
-            .iter()
-            .any(|lit| tail.starts_with(lit))
-    })
 }
 
 /// Reads a strokes file, naming it in any error.

@@ -5,6 +5,7 @@ pub mod demo_rig;
 pub mod info;
 pub mod pose;
 pub mod render;
+pub mod serve;
 pub mod surface;
 pub mod track;
 

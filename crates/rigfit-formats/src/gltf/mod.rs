@@ -17,7 +17,7 @@ use serde_json::Value;
 use crate::error::{FormatError, ParseError, extension, read_bytes, write_atomic};
 
 pub use container::is_glb;
-pub use write::rig_to_glb;
+pub use write::{rig_to_glb, rig_to_gltf};
 
 /// The name of the animation rigfit writes its keys to.
 pub const RIGFIT_ANIMATION: &str = "rigfit";
@@ -74,7 +74,7 @@ pub fn read_gltf(path: &Path, skin_name: Option<&str>) -> Result<GltfDocument, F
     Ok(doc)
 }
 
-fn percent_decode(uri: &str) -> String {
+pub(crate) fn percent_decode(uri: &str) -> String {
     let bytes = uri.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;
@@ -140,6 +140,11 @@ impl GltfDocument {
         out_dir: Option<&Path>,
     ) -> Vec<u8> {
         write::to_bytes(self, glb, pose, keys, out_dir)
+    }
+
+    /// The file as it was read, as GLB (a `.gltf` gets its buffer 0 as the binary chunk).
+    pub fn to_glb(&self) -> Vec<u8> {
+        write::encode(self.json.clone(), &self.buffers, true)
     }
 
     /// Writes the file with a new pose (see [`Self::to_bytes`]); `.glb` or `.gltf` by the

@@ -232,16 +232,6 @@ pub(super) fn to_bytes(
         );
         buffers[0] = bytes;
     }
-    // Buffers: GLB keeps buffer 0 in its binary chunk; everything else is embedded.
-    for (i, b) in buffers.iter().enumerate() {
-        let entry = &mut json["buffers"][i];
-        entry["byteLength"] = json!(b.len());
-        if glb && i == 0 {
-            entry.as_object_mut().map(|o| o.remove("uri"));
-        } else {
-            entry["uri"] = json!(data_uri(b));
-        }
-    }
     // Images referenced by relative paths stay reachable from a new directory.
     if let (Some(src), Some(out)) = (&doc.source_dir, out_dir) {
         let same = src.canonicalize().ok() == out.canonicalize().ok();
@@ -257,6 +247,21 @@ pub(super) fn to_bytes(
             }
         }
     }
+    encode(json, &buffers, glb)
+}
+
+/// The bytes of a glTF file from its JSON and the bytes of its buffers: GLB keeps buffer 0
+/// in its binary chunk and embeds the others as data URIs; `.gltf` JSON embeds every buffer.
+pub(super) fn encode(mut json: Value, buffers: &[Vec<u8>], glb: bool) -> Vec<u8> {
+    for (i, b) in buffers.iter().enumerate() {
+        let entry = &mut json["buffers"][i];
+        entry["byteLength"] = json!(b.len());
+        if glb && i == 0 {
+            entry.as_object_mut().map(|o| o.remove("uri"));
+        } else {
+            entry["uri"] = json!(data_uri(b));
+        }
+    }
     let text = serde_json::to_vec(&json).expect("JSON values always serialise");
     if glb {
         join_glb(&text, buffers.first().map(Vec::as_slice))
@@ -265,9 +270,21 @@ pub(super) fn to_bytes(
     }
 }
 
-/// A complete `.glb` for a rig: nodes for its joints in their stored pose, a skin, its
-/// skinned meshes and animations.
+/// A complete `.glb` for a rig: nodes for its joints in their stored pose (node `j` is
+/// joint `j`), a skin, its skinned meshes and animations.
 pub fn rig_to_glb(rig: &Rig) -> Vec<u8> {
+    let (json, bytes) = rig_document(rig);
+    encode(json, &[bytes], true)
+}
+
+/// [`rig_to_glb`] as `.gltf` JSON with its buffer embedded as a data URI.
+pub fn rig_to_gltf(rig: &Rig) -> Vec<u8> {
+    let (json, bytes) = rig_document(rig);
+    encode(json, &[bytes], false)
+}
+
+/// The glTF JSON and buffer of [`rig_to_glb`].
+fn rig_document(rig: &Rig) -> (Value, Vec<u8>) {
     let skeleton = &rig.skeleton;
     let mut json = json!({ "asset": { "version": "2.0", "generator": "rigfit" }, "buffers": [ { "byteLength": 0 } ] });
     let mut nodes: Vec<Value> = skeleton
@@ -379,7 +396,5 @@ pub fn rig_to_glb(rig: &Rig) -> Vec<u8> {
     json["nodes"] = json!(nodes);
     json["scenes"] = json!([{ "nodes": scene_nodes }]);
     json["scene"] = json!(0);
-    json["buffers"][0]["byteLength"] = json!(bytes.len());
-    let text = serde_json::to_vec(&json).expect("JSON values always serialise");
-    join_glb(&text, Some(&bytes))
+    (json, bytes)
 }

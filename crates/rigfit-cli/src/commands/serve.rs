@@ -1,0 +1,126 @@
+//! `rigfit serve [RIG] [--port P] [--host H]`: the sketching page in a browser. Loads RIG
+//! (or the built-in humanoid) as character `c0`, listens on 127.0.0.1 unless `--host` says
+//! otherwise, prints `rigfit serve: http://HOST:PORT/` as its first line and serves until
+//! Ctrl-C or SIGTERM.
+
+use std::io::Write as _;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use anyhow::{Context, anyhow};
+use rigfit_formats::rig_file::{RigOptions, read_rig};
+use rigfit_server::{AppState, ServerConfig};
+
+/// The port `rigfit serve` listens on unless told otherwise.
+pub const DEFAULT_PORT: u16 = 8717;
+
+#[derive(Debug, clap::Args)]
+pub struct ServeArgs {
+    /// The character to load first (.glb / .gltf with a skin, or .bvh); the built-in humanoid
+    /// when absent.
+    pub rig: Option<PathBuf>,
+    /// The port (0: any free port; the first line printed says which).
+    #[arg(long, default_value_t = DEFAULT_PORT)]
+    pub port: u16,
+    /// The address to listen on. Anything but a loopback address (127.0.0.1, ::1,
+    /// localhost) makes the server reachable from other machines.
+    #[arg(long, default_value = "127.0.0.1")]
+    pub host: String,
+    /// The glTF skin of RIG to pose (by name); the first by default.
+    #[arg(long)]
+    pub skin: Option<String>,
+    /// BVH: the frame RIG starts from (a number, or `rest` for all channels zero).
+    #[arg(long)]
+    pub start_frame: Option<String>,
+}
+
+pub fn run(args: &ServeArgs) -> anyhow::Result<()> {
+    // Everything that can be wrong with the arguments is found before listening.
+    let first = match &args.rig {
+        Some(path) => {
+            let options = RigOptions {
+                skin: args.skin.clone(),
+                start_frame: super::pose::start_frame(args.start_frame.as_deref())?,
+            };
+            Some((path.clone(), read_rig(path, &options)?))
+        }
+        None => None,
+    };
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("starting the server's runtime")?;
+    runtime.block_on(serve(args, first))
+}
+
+async fn serve(
+    args: &ServeArgs,
+    first: Option<(PathBuf, rigfit_formats::rig_file::RigFile)>,
+) -> anyhow::Result<()> {
+    let addresses: Vec<SocketAddr> = tokio::net::lookup_host((args.host.as_str(), args.port))
+        .await
+        .with_context(|| format!("--host {}: not an address of this machine", args.host))?
+        .collect();
+    let address = addresses
+        .first()
+        .copied()
+        .ok_or_else(|| anyhow!("--host {}: names no address", args.host))?;
+    let loopback_only = address.ip().is_loopback();
+    let state = AppState::new(&ServerConfig {
+        loopback_only,
+        ..ServerConfig::default()
+    });
+    match first {
+        Some((path, rig_file)) => {
+            state
+                .add_rig_file(&path, rig_file)
+                .ok_or_else(|| anyhow!("{}: could not be added", path.display()))?;
+        }
+        None => {
+            state.add_humanoid()?;
+        }
+    }
+    let listener = tokio::net::TcpListener::bind(address)
+        .await
+        .with_context(|| format!("{address}: cannot listen"))?;
+    let bound = listener
+        .local_addr()
+        .with_context(|| format!("{address}: cannot listen"))?;
+    let mut stdout = std::io::stdout();
+    writeln!(stdout, "rigfit serve: http://{bound}/")?;
+    stdout.flush()?;
+    if !loopback_only {
+        eprintln!(
+            "rigfit serve: warning: listening on {bound}: other machines can reach this server (it has no authentication)"
+        );
+    }
+    rigfit_server::serve(listener, state, shutdown_signal())
+        .await
+        .context("serving")?;
+    Ok(())
+}
+
+/// Completes on Ctrl-C or (on Unix) SIGTERM.
+async fn shutdown_signal() {
+    let ctrl_c = async {
+        if tokio::signal::ctrl_c().await.is_err() {
+            // No signal handler: serve until killed.
+            std::future::pending::<()>().await;
+        }
+    };
+    #[cfg(unix)]
+    let terminate = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut signal) => {
+                signal.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let terminate = std::future::pending::<()>();
+    tokio::select! {
+        () = ctrl_c => {}
+        () = terminate => {}
+    }
+}
