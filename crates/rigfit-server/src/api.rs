@@ -331,7 +331,7 @@ fn restrict_roots(skeleton: &rigfit_core::Skeleton, dof: JointDof) -> rigfit_cor
     for j in 0..restricted.len() {
         let joint = restricted.joint(j);
         if joint.dof == JointDof::Free {
-            let limits = joint.limits.clone();
+            let limits = joint.limits;
             restricted.set_dof(j, dof, limits);
         }
     }
