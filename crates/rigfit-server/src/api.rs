@@ -14,6 +14,7 @@ use axum::extract::{Path as UrlPath, Query, Request, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use http_body_util::{BodyExt, LengthLimitError, Limited};
+use rigfit_core::JointDof;
 use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem, solve_pose};
 use rigfit_formats::ParseError;
 use rigfit_formats::json::parse_json;
@@ -262,8 +263,29 @@ fn solve_request(character: &Character, body: &[u8]) -> Result<Value, ApiError> 
             Err(e) => return Err(bad_body(WHAT, &e)),
         },
     };
+    let root = match request::optional(obj, "root") {
+        None => RootMotion::Free,
+        Some(r) => match request::word("root", r, &["free", "rotate", "fixed"]) {
+            Ok("rotate") => RootMotion::Rotate,
+            Ok("fixed") => RootMotion::Fixed,
+            Ok(_) => RootMotion::Free,
+            Err(e) => return Err(bad_body(WHAT, &e)),
+        },
+    };
+    let restricted;
+    let skeleton = match root {
+        RootMotion::Free => &rig.skeleton,
+        RootMotion::Rotate => {
+            restricted = restrict_roots(&rig.skeleton, JointDof::Ball);
+            &restricted
+        }
+        RootMotion::Fixed => {
+            restricted = restrict_roots(&rig.skeleton, JointDof::Fixed);
+            &restricted
+        }
+    };
     let problem = PoseProblem {
-        skeleton: &rig.skeleton,
+        skeleton,
         start: &start,
         strokes: &strokes,
         movable: movable.as_deref(),
@@ -286,15 +308,65 @@ fn solve_request(character: &Character, body: &[u8]) -> Result<Value, ApiError> 
         result.energy,
         seconds,
     );
-    // Each joint also with its local translation, so the answer is a pose the page can send
-    // back as the next request's start.
-    if let Some(joints) = report.get_mut("joints").and_then(Value::as_array_mut) {
-        for (value, j) in joints.iter_mut().zip(rig.reported_joints()) {
-            let t = result.pose.local[j].translation;
-            value["translation"] = json!([t.x, t.y, t.z]);
+    report["joints"] = Value::Array(answer_joints(rig, &result.pose));
+    Ok(report)
+}
+
+/// What a solve may do with the character's root joints (the joints free to move and turn:
+/// the skin root, or every root of a forest).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum RootMotion {
+    /// Move and turn (the solver's default).
+    Free,
+    /// Turn in place: the roots keep their translation.
+    Rotate,
+    /// Keep their transform.
+    Fixed,
+}
+
+/// The skeleton with its free (root) joints given `dof` instead: `Ball` turns them in place,
+/// `Fixed` keeps them as they start. (The solver's rigid multi-start only moves a free root.)
+fn restrict_roots(skeleton: &rigfit_core::Skeleton, dof: JointDof) -> rigfit_core::Skeleton {
+    let mut restricted = skeleton.clone();
+    for j in 0..restricted.len() {
+        let joint = restricted.joint(j);
+        if joint.dof == JointDof::Free {
+            let limits = joint.limits;
+            restricted.set_dof(j, dof, limits);
         }
     }
-    Ok(report)
+    restricted
+}
+
+/// The solve answer's joints: every joint of the CHARACTER in its order (helpers included),
+/// each with its `index` there, its parent's name, world position, and local rotation and
+/// translation (a pose the page can send back as the next request's start); BVH End Sites
+/// with `"end_site": true` as in the command line's report.
+fn answer_joints(rig: &rigfit_core::Rig, pose: &rigfit_core::Pose) -> Vec<Value> {
+    let skeleton = &rig.skeleton;
+    let positions = skeleton.joint_positions(pose);
+    skeleton
+        .joints()
+        .iter()
+        .enumerate()
+        .map(|(j, joint)| {
+            let p = positions[j];
+            let local = &pose.local[j];
+            let t = local.translation;
+            let mut value = json!({
+                "index": j,
+                "name": joint.name,
+                "parent": joint.parent.map(|q| skeleton.joint(q).name.clone()),
+                "position": [p.x, p.y, p.z],
+                "rotation": rigfit_core::animation::quat_to_xyzw(&local.rotation),
+                "translation": [t.x, t.y, t.z],
+            });
+            if joint.kind == rigfit_core::JointKind::EndSite {
+                value["end_site"] = json!(true);
+            }
+            value
+        })
+        .collect()
 }
 
 /// `POST /api/characters/{id}/export`: the character's file with a pose and keys.

@@ -166,7 +166,14 @@ async fn solve_from_animation(router: &axum::Router, id: &str, rig: &rigfit_core
             assert!(report.get(key).is_some(), "report has {key}");
         }
         let joint = &report["joints"][0];
-        for key in ["name", "parent", "position", "rotation", "translation"] {
+        for key in [
+            "index",
+            "name",
+            "parent",
+            "position",
+            "rotation",
+            "translation",
+        ] {
             assert!(joint.get(key).is_some(), "joint has {key}: {joint}");
         }
         assert_eq!(
@@ -248,6 +255,80 @@ async fn solve_starts_from_the_given_pose_and_moves_only_the_given_bones() {
 }
 
 #[tokio::test]
+async fn solve_can_keep_the_root_in_place_or_fixed() {
+    let (_, router) = app();
+    let rig = rigfit_server::humanoid_rig_file().expect("humanoid").rig;
+    let hips = rig.skeleton.find("Hips").expect("Hips");
+    // Strokes of a pose drawn 0.3 m to the side: a free root follows them.
+    let mut case = case_from_animation(&rig, 0.5, 5);
+    for stroke in case.strokes.as_array_mut().expect("strokes") {
+        for point in stroke["points"].as_array_mut().expect("points") {
+            let x = point[0].as_f64().expect("x");
+            point[0] = json!(x + 0.3);
+        }
+    }
+    let numbers = |v: &Value| -> Vec<f64> {
+        v.as_array()
+            .expect("list")
+            .iter()
+            .map(|x| x.as_f64().expect("number"))
+            .collect()
+    };
+    let stored = rig.pose.local[hips];
+    let mut roots = Vec::new();
+    for root in ["free", "rotate", "fixed"] {
+        let answer = post_json(
+            &router,
+            "/api/characters/c0/solve",
+            &json!({ "strokes": case.strokes, "root": root }),
+        )
+        .await;
+        assert_status(&answer, StatusCode::OK);
+        let joint = answer.json()["joints"][hips].clone();
+        let t = numbers(&joint["translation"]);
+        let r = numbers(&joint["rotation"]);
+        let moved = (t[0] - stored.translation.x).abs();
+        let turned = quat_from_xyzw([r[0], r[1], r[2], r[3]]).angle_to(&stored.rotation);
+        roots.push((root, moved, turned));
+    }
+    assert!(
+        roots[0].1 > 0.1,
+        "a free root moves onto the strokes: {roots:?}"
+    );
+    assert!(roots[1].1 < 1e-9, "rotate keeps the translation: {roots:?}");
+    assert!(
+        roots[2].1 < 1e-9 && roots[2].2 < 1e-9,
+        "fixed keeps all: {roots:?}"
+    );
+    // Every joint of the CHARACTER is in the answer, helpers too (BCN_Epileptic has one).
+    let created = upload(&router, "assimp/BCN_Epileptic.glb", "").await;
+    let bcn = read_rig(&asset("assimp/BCN_Epileptic.glb"), &RigOptions::default()).expect("rig");
+    let case = case_from_animation(&bcn.rig, 0.5, 9);
+    let answer = post_json(
+        &router,
+        "/api/characters/c1/solve",
+        &json!({ "strokes": case.strokes, "root": "rotate" }),
+    )
+    .await;
+    assert_status(&answer, StatusCode::OK);
+    let names = |v: &Value| -> Vec<Value> {
+        v.as_array()
+            .expect("joints")
+            .iter()
+            .map(|j| j["name"].clone())
+            .collect()
+    };
+    assert_eq!(names(&answer.json()["joints"]), names(&created["joints"]));
+    assert!(
+        created["joints"]
+            .as_array()
+            .expect("joints")
+            .iter()
+            .any(|j| j["kind"] == "helper")
+    );
+}
+
+#[tokio::test]
 async fn bad_solve_requests_get_one_line_and_the_server_goes_on() {
     let (_, router) = app();
     let rig = rigfit_server::humanoid_rig_file().expect("humanoid").rig;
@@ -292,6 +373,11 @@ async fn bad_solve_requests_get_one_line_and_the_server_goes_on() {
                 .into(),
             StatusCode::BAD_REQUEST,
             "pose.joints[0].translation: expected a list of 3 numbers",
+        ),
+        (
+            json!({ "strokes": strokes, "root": "pinned" }).to_string().into(),
+            StatusCode::BAD_REQUEST,
+            "root: expected one of \"free\", \"rotate\", \"fixed\"",
         ),
         (
             json!({ "strokes": strokes, "bones": "LeftArm" }).to_string().into(),

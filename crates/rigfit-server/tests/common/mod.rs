@@ -211,17 +211,20 @@ pub fn case_from_animation(rig: &Rig, fraction: f64, seed: u64) -> SolveCase {
 }
 
 /// Mean distance, as a fraction of the height, between the joint positions of a solve answer
-/// and the true pose, over the drawn joints (matched by name).
+/// and the true pose, over the drawn joints (the answer lists every joint in the rig's order).
 pub fn answer_error(rig: &Rig, answer: &Value, truth: &Pose, drawn: &[usize]) -> f64 {
     let truth_positions = rig.skeleton.joint_positions(truth);
     let joints = answer["joints"].as_array().expect("joints");
+    assert_eq!(
+        joints.len(),
+        rig.skeleton.len(),
+        "every joint in the answer"
+    );
     let mut sum = 0.0;
-    let mut count = 0;
     for &j in drawn {
-        let name = &rig.skeleton.joint(j).name;
-        let Some(found) = joints.iter().find(|v| v["name"] == json!(name)) else {
-            continue;
-        };
+        let found = &joints[j];
+        assert_eq!(found["index"], json!(j));
+        assert_eq!(found["name"], json!(rig.skeleton.joint(j).name));
         let p: Vec<f64> = found["position"]
             .as_array()
             .expect("position")
@@ -230,8 +233,7 @@ pub fn answer_error(rig: &Rig, answer: &Value, truth: &Pose, drawn: &[usize]) ->
             .collect();
         let t = truth_positions[j];
         sum += ((p[0] - t.x).powi(2) + (p[1] - t.y).powi(2) + (p[2] - t.z).powi(2)).sqrt();
-        count += 1;
     }
-    assert!(count > 0, "no drawn joint in the answer");
-    sum / count as f64 / rig.height()
+    assert!(!drawn.is_empty(), "no drawn joint");
+    sum / drawn.len() as f64 / rig.height()
 }
