@@ -43,12 +43,12 @@ pub enum FormatError {
     /// The file's content is wrong.
     #[error("{}: {error}", path.display())]
     Parse { path: PathBuf, error: ParseError },
-    /// The file could not be read or written.
-    #[error("{}: {source}", path.display())]
+    /// The file could not be read or written. The I/O error is part of the one line (not a
+    /// `source`), so that printing the error chain does not repeat it.
+    #[error("{}: {error}", path.display())]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The file's extension names no format rigfit knows for this use.
     #[error("{}: unsupported file type (expected {expected})", path.display())]
@@ -63,10 +63,10 @@ impl FormatError {
         }
     }
 
-    pub fn io(path: &Path, source: std::io::Error) -> Self {
+    pub fn io(path: &Path, error: std::io::Error) -> Self {
         Self::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         }
     }
 }
