@@ -4,7 +4,6 @@
 # the CLI if needed, then runs node's test runner over web/tests/. Called by scripts/test.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-root=$(pwd)
 
 if [ ! -x /usr/bin/chromium ]; then
   echo "== installing chromium (Debian)"
@@ -24,15 +23,8 @@ echo "== npm ci (web/)"
 echo "== cargo build -p rigfit-cli"
 cargo build -p rigfit-cli --quiet
 
-# The real assets, as scripts/test.sh finds them.
-if [ -z "${RIGFIT_DATA:-}" ]; then
-  if [ -d "$root/../shared/data/assimp" ]; then
-    export RIGFIT_DATA="$root/../shared/data"
-  else
-    export RIGFIT_DATA="$root/target/test-data"
-    [ -f "$RIGFIT_DATA/assimp/BCN_Epileptic.glb" ] || scripts/fetch-data.sh "$RIGFIT_DATA"
-  fi
-fi
+# The real assets (scripts/test-data.sh).
+. scripts/test-data.sh
 
 echo "== browser tests (screenshots in target/web-artifacts/)"
 node --test --test-concurrency=1 web/tests/

