@@ -31,12 +31,11 @@ pub struct PatchSystem {
     /// For each vertex, the block index of every pair of its blended patches
     /// (`blend` order, row-major over the pair).
     vertex_pairs: Vec<Vec<u32>>,
-    /// For each neighbouring pair `(k, l)`: blocks `(k,k)`, `(l,l)`, `(min,max)`.
-    rigidity_pairs: Vec<(usize, usize, [u32; 3])>,
-    /// For each neighbouring pair, the rest-frame moments of its rigidity term (eq. 4) for
-    /// the blocks `(k,k)`, `(l,l)` and `(k,l)`: the weights `alpha_k(v) + alpha_l(v)` never
-    /// change, so the term's normal equations cost O(1) per pair instead of O(vertices).
-    rigidity_moments: Vec<[OffsetMoments; 3]>,
+    /// For each neighbouring pair `(k, l)`: blocks `(k,k)`, `(l,l)`, `(min,max)`, and the
+    /// rest-frame moments of its rigidity term (eq. 4) for those blocks: the weights
+    /// `alpha_k(v) + alpha_l(v)` never change, so the term's normal equations cost O(1) per
+    /// pair instead of O(vertices).
+    rigidity_pairs: Vec<(usize, usize, [u32; 3], [OffsetMoments; 3])>,
     symbolic_matrix: SymbolicSparseColMat<usize>,
     symbolic: SymbolicLlt<usize>,
     /// For each scalar entry of the CSC matrix, its block and position in the block.
@@ -118,13 +117,9 @@ impl PatchSystem {
                         block_of(&column_rows, l, l),
                         block_of(&column_rows, k, l),
                     ],
+                    rigidity_pair_moments(model, k, l),
                 )
             })
-            .collect();
-        let rigidity_moments = model
-            .neighbour_pairs()
-            .into_iter()
-            .map(|(k, l)| rigidity_pair_moments(model, k, l))
             .collect();
         // The scalar pattern: upper triangle of the block pattern.
         let dim = 6 * n;
@@ -155,7 +150,6 @@ impl PatchSystem {
             block_patches,
             vertex_pairs,
             rigidity_pairs,
-            rigidity_moments,
             symbolic_matrix,
             symbolic,
             value_source,
@@ -353,10 +347,6 @@ impl DataBlockSums {
     }
 }
 
-/// Blend pairs whose weights multiply to less than this are left out of the Gauss-Newton
-/// matrix (not out of the gradient, so the fixed point is unchanged).
-const NEGLIGIBLE_BLEND_PAIR: f64 = 0.0;
-
 /// Adds `w * J^T r` for `J = [-[q]x, I]`.
 #[inline]
 fn add_jtr(g: &mut [f64], w: f64, q: &Vector3, r: &Vector3) {
@@ -467,10 +457,10 @@ pub fn gauss_newton_step(
                 for (ia, &(ka, aa, offset_a, qa, qa_cross_n)) in blend.iter().enumerate() {
                     add_jtr(&mut gradient[6 * ka..6 * ka + 6], aa, &qa, &pr);
                     for (ib, &(kb, ab, offset_b, _, qb_cross_n)) in blend.iter().enumerate() {
-                        let alphas = aa * ab;
-                        if ka > kb || alphas < NEGLIGIBLE_BLEND_PAIR {
+                        if ka > kb {
                             continue;
                         }
+                        let alphas = aa * ab;
                         let sum = &mut sums[pairs[ia * m + ib] as usize];
                         sum.isotropic.add(isotropic * alphas, &offset_a, &offset_b);
                         let c = along_normal * alphas;
@@ -510,7 +500,8 @@ pub fn gauss_newton_step(
     // alpha_k(v) + alpha_l(v); the Jacobian is J_k(v) for patch k and -J_l(v) for patch l.
     // From the pair's rest-frame moments: with d = c_k - c_l and r = d + q_k - q_l,
     // sum beta q_k x r = m_k x d - X and sum beta q_l x r = m_l x d - X, X = sum q_k x q_l.
-    for (&(k, l, ids), moments) in system.rigidity_pairs.iter().zip(&system.rigidity_moments) {
+    for (k, l, ids, moments) in &system.rigidity_pairs {
+        let (k, l) = (*k, *l);
         let (rk, rl) = (&pose.rotation[k], &pose.rotation[l]);
         let w = weights.rigidity;
         moments[0].add_to_block(&mut blocks[ids[0] as usize], w, rk, rk);
@@ -720,7 +711,7 @@ mod reference {
         let rigidity: Vec<PairTerms> = system
             .rigidity_pairs
             .par_iter()
-            .map(|&(k, l, ids)| {
+            .map(|&(k, l, ids, _)| {
                 let mut b = [[0.0; 36]; 3];
                 let mut g = [0.0; 12];
                 for &v in model.members[k].iter().chain(&model.members[l]) {
