@@ -4,7 +4,7 @@
 //! paper's method and by rigfit's additions one by one.
 //!
 //! `cargo run --release -p rigfit-cli --example surface_accuracy` (`VERBOSE=1` for every
-//! frame)
+//! frame; `METHOD=rigfit` for the rows whose label starts so)
 
 use std::time::Instant;
 
@@ -119,7 +119,8 @@ fn main() {
             .get(anim)
             .map(|a| a.name.as_str())
             .unwrap_or("-");
-        for (label, options) in &methods {
+        let only = std::env::var("METHOD").unwrap_or_default();
+        for (label, options) in methods.iter().filter(|(l, _)| l.starts_with(&only)) {
             let [mean, p95, hole, ms, iterations, patches] = track(&seq, options, label);
             println!(
                 "| {label} | {file} ({clip_name}) | {} | {patches} | {:.3} | {:.3} | {:.3} | {ms:.1} | {iterations:.1} |",

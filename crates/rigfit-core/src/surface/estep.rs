@@ -4,10 +4,11 @@
 //! position of `v_i^k`, the closest vertex of `P_k` with a compatible normal among the
 //! predictions of `P_k` and of its neighbours (the multi-hypothesis mechanism, fig. 1).
 //!
-//! The predictions go into a kd-tree; each point asks for its nearest few within a cutoff of
-//! a few `sigma`, so the cost is linear in the number of points and no points-by-patches
-//! matrix is ever formed. Posteriors (eq. 8) are collapsed per vertex into the sums the
-//! M-step needs.
+//! Each point keeps a list of its nearest few predictions within a cutoff of a few `sigma`:
+//! found in a kd-tree on a frame's first E-step, then kept up to date by walking the mesh
+//! from the list ([`EStepCache`]). The cost is linear in the number of points and no
+//! points-by-patches matrix is ever formed. Posteriors (eq. 8) are collapsed per vertex into
+//! the sums the M-step needs.
 
 use std::num::NonZero;
 
@@ -187,31 +188,49 @@ impl VertexTargets {
     }
 }
 
-/// Candidates are searched again once a hypothesis moved by this fraction of a mean edge.
+/// The candidate lists are walked again once some hypothesis moved by this fraction of a
+/// mean edge since they were last refreshed; below it they are kept as they are.
 const REUSE_DRIFT: f64 = 0.25;
 
-/// The hypotheses and each point's candidates among them, kept between the E-steps of one
-/// frame while no prediction has moved by more than a fraction of the mesh's spacing: the
-/// kd-tree is then neither rebuilt nor searched again.
+/// Each point's candidates, kept between the E-steps of one frame: the nearest few hypotheses
+/// (blend entries: vertex `v` predicted by patch `l`) within the cutoff. The first E-step on a
+/// frame searches a kd-tree; the next ones keep the lists while the hypotheses have moved by
+/// less than [`REUSE_DRIFT`] of an edge, and otherwise refresh every list by walking the mesh
+/// from it (the hypotheses of the listed vertices and of their neighbours), which keeps the
+/// lists current however far the mesh moves in small steps, without searching. A point
+/// with no candidates is searched again only when the mesh may have come within its cutoff:
+/// its list was complete within `cover` when searched, and no hypothesis has moved more than
+/// the drift summed since. Points are visited in a spatial (Morton) order, so that
+/// neighbouring points read neighbouring memory.
 #[derive(Clone, Debug, Default)]
 pub struct EStepCache {
-    /// Each hypothesis: (vertex, patch whose prediction it is).
-    keys: Vec<(u32, u32)>,
-    /// Where the hypotheses were when the candidates were found.
-    found_at: Vec<Point3>,
-    /// `candidates[start[i]..start[i + 1]]` are point `i`'s hypotheses.
-    start: Vec<u32>,
-    candidates: Vec<u32>,
-    /// The search radius and the data it was run on (address and length).
-    radius: f64,
+    /// The data the lists are for (address and length).
     data: (usize, usize),
+    /// Slots per point (`max_candidates`).
+    slots: usize,
+    /// The points in visiting order; the per-point arrays below are in that order.
+    order: Vec<u32>,
+    /// `list[r * slots..][..count[r]]`: the candidates of point `order[r]`, nearest first.
+    list: Vec<u32>,
+    count: Vec<u8>,
+    /// The radius within which the list was complete when it was searched, and the E-step
+    /// that searched it.
+    cover: Vec<f64>,
+    searched_at: Vec<u32>,
+    /// `drift[t]`: the largest move of any hypothesis, summed over E-steps `1..=t`.
+    drift: Vec<f64>,
+    /// Every blend entry's prediction at the last E-step.
+    previous: Vec<Point3>,
+    /// The E-step that last walked or searched the lists.
+    refreshed_at: u32,
 }
 
 impl EStepCache {
     /// Forgets the candidates (the next E-step searches again).
     pub fn clear(&mut self) {
-        self.keys.clear();
-        self.found_at.clear();
+        self.data = (0, 0);
+        self.previous.clear();
+        self.drift.clear();
     }
 }
 
@@ -236,10 +255,132 @@ pub fn e_step(
     )
 }
 
-/// [`e_step`] reusing `cache`'s candidates (each point's nearest hypotheses within the
-/// cutoff) while no hypothesis has moved by more than a quarter of a mean edge since they
-/// were found and the cutoff has not grown; otherwise the hypotheses are made and searched
-/// again and kept in `cache`.
+/// Up to `entries.len()` nearest hypotheses, nearest first: a small sorted buffer.
+struct Nearest<'a> {
+    entries: &'a mut [u32],
+    distances: [f64; MAX_SLOTS],
+    count: usize,
+}
+
+const MAX_SLOTS: usize = 64;
+
+impl<'a> Nearest<'a> {
+    fn new(entries: &'a mut [u32]) -> Self {
+        Self {
+            entries,
+            distances: [0.0; MAX_SLOTS],
+            count: 0,
+        }
+    }
+
+    #[inline]
+    fn offer(&mut self, entry: u32, d2: f64) {
+        let slots = self.entries.len();
+        if self.count == slots && d2 >= self.distances[slots - 1] {
+            return;
+        }
+        let mut at = self.count.min(slots - 1);
+        while at > 0 && self.distances[at - 1] > d2 {
+            self.distances[at] = self.distances[at - 1];
+            self.entries[at] = self.entries[at - 1];
+            at -= 1;
+        }
+        self.distances[at] = d2;
+        self.entries[at] = entry;
+        self.count = (self.count + 1).min(slots);
+    }
+}
+
+/// The points' indices sorted along a Morton (Z-order) curve over their bounding box.
+fn morton_order(points: &[Point3]) -> Vec<u32> {
+    let Some(bounds) = Aabb::from_points(points) else {
+        return Vec::new();
+    };
+    let extent = bounds.extent();
+    let scale = 1023.0 / extent.x.max(extent.y).max(extent.z).max(1e-300);
+    // Spreads the low 10 bits of `x` to every third bit.
+    let spread = |x: u64| {
+        let mut x = x & 0x3ff;
+        x = (x | (x << 16)) & 0x0300_00ff;
+        x = (x | (x << 8)) & 0x0300_f00f;
+        x = (x | (x << 4)) & 0x030c_30c3;
+        (x | (x << 2)) & 0x0924_9249
+    };
+    let mut keyed: Vec<(u64, u32)> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let q = (p - bounds.min) * scale;
+            let code = spread(q.x as u64) | (spread(q.y as u64) << 1) | (spread(q.z as u64) << 2);
+            (code, i as u32)
+        })
+        .collect();
+    keyed.sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
+}
+
+/// The hypotheses of a pose that are worth a look, vertex by vertex: each vertex predicted by
+/// its own patch, and by each neighbouring patch whose prediction differs from that by more
+/// than `merge` (eq. 1; the others add nothing).
+struct Hypotheses {
+    /// Every blend entry's prediction, and the vertex's normal turned by the entry's patch.
+    at: Vec<Point3>,
+    normal: Vec<Vector3>,
+    /// `entry[start[v]..start[v + 1]]`: the blend entries of `v` kept, with their positions.
+    start: Vec<u32>,
+    entry: Vec<u32>,
+    position: Vec<Point3>,
+}
+
+impl Hypotheses {
+    fn new(model: &PatchModel, pose: &PatchPose, merge: f64) -> Self {
+        let (at, normal): (Vec<Point3>, Vec<Vector3>) = (0..model.blend_patch.len())
+            .into_par_iter()
+            .map(|e| {
+                let (l, v) = (
+                    model.blend_patch[e] as usize,
+                    model.blend_vertex[e] as usize,
+                );
+                (
+                    model.prediction(pose, l, v),
+                    pose.rotation[l] * model.rest_normals[v],
+                )
+            })
+            .unzip();
+        let merge2 = merge * merge;
+        let mut start = Vec::with_capacity(model.vertex_count() + 1);
+        let mut entry = Vec::with_capacity(model.vertex_count() * 2);
+        let mut position = Vec::with_capacity(model.vertex_count() * 2);
+        start.push(0);
+        for v in 0..model.vertex_count() {
+            let (a, b) = (
+                model.blend_start[v] as usize,
+                model.blend_start[v + 1] as usize,
+            );
+            for e in a..b {
+                if e == a || (at[e] - at[a]).norm_squared() > merge2 {
+                    entry.push(e as u32);
+                    position.push(at[e]);
+                }
+            }
+            start.push(entry.len() as u32);
+        }
+        Self {
+            at,
+            normal,
+            start,
+            entry,
+            position,
+        }
+    }
+
+    fn of_vertex(&self, v: usize) -> std::ops::Range<usize> {
+        self.start[v] as usize..self.start[v + 1] as usize
+    }
+}
+
+/// [`e_step`] keeping each point's candidates in `cache` between the E-steps of a frame (see
+/// [`EStepCache`]).
 pub fn e_step_cached(
     model: &PatchModel,
     pose: &PatchPose,
@@ -250,84 +391,128 @@ pub fn e_step_cached(
     cache: &mut EStepCache,
 ) -> VertexTargets {
     let n_vertices = model.vertex_count();
+    let n_points = data.points.len();
     let cutoff = options.cutoff_sigmas * sigma;
-    let data_id = (data.points.as_ptr() as usize, data.points.len());
-    // Where the cached hypotheses are now, and whether the candidates still hold.
-    let now: Vec<Point3> = cache
-        .keys
-        .par_iter()
-        .map(|&(v, l)| model.prediction(pose, l as usize, v as usize))
-        .collect();
-    let drift = now
-        .iter()
-        .zip(&cache.found_at)
-        .map(|(a, b)| (a - b).norm_squared())
-        .fold(0.0, f64::max)
-        .sqrt();
-    // The candidates are each point's nearest few: they stay its nearest only while the
-    // hypotheses move by a fraction of their spacing.
-    let valid = !cache.keys.is_empty()
-        && cache.data == data_id
-        && cutoff <= cache.radius
-        && drift <= REUSE_DRIFT * model.mean_edge;
-    let now = if valid {
-        now
-    } else {
-        // The hypotheses: for every vertex v of P_k, its prediction by P_k and by each
-        // neighbour l of P_k. Predictions that agree with the patch's own (within a fraction
-        // of an edge) add nothing and are left out, so a well-registered mesh costs one entry
-        // per vertex.
-        let merge = 0.3 * model.mean_edge;
-        let per_vertex: Vec<Vec<((u32, u32), Point3)>> = (0..n_vertices)
-            .into_par_iter()
-            .map(|v| {
-                let k = model.vertex_patch[v] as usize;
-                let own = model.prediction(pose, k, v);
-                let mut out = vec![((v as u32, k as u32), own)];
-                for &l in &model.neighbours[k] {
-                    let p = model.prediction(pose, l as usize, v);
-                    if (p - own).norm() > merge {
-                        out.push(((v as u32, l), p));
-                    }
-                }
-                out
-            })
-            .collect();
-        let (keys, at): (Vec<(u32, u32)>, Vec<Point3>) = per_vertex.into_iter().flatten().unzip();
-        let coords: Vec<[f64; 3]> = at.iter().map(|p| [p.x, p.y, p.z]).collect();
-        let tree = PointTree::new(&coords);
-        let radius = cutoff;
-        let lists: Vec<Vec<u32>> = data
-            .points
-            .par_iter()
-            .map(|y| {
-                tree.nearest_within(y, options.max_candidates, radius)
-                    .into_iter()
-                    .map(|(h, _)| h as u32)
-                    .collect()
-            })
-            .collect();
-        cache.start.clear();
-        cache.candidates.clear();
-        cache.start.push(0);
-        for list in lists {
-            cache.candidates.extend(list);
-            cache.start.push(cache.candidates.len() as u32);
-        }
-        cache.keys = keys;
-        cache.found_at.clone_from(&at);
-        cache.radius = radius;
+    let cut2 = cutoff * cutoff;
+    let slots = options.max_candidates.clamp(1, MAX_SLOTS);
+    let hypotheses = Hypotheses::new(model, pose, 0.3 * model.mean_edge);
+    let data_id = (data.points.as_ptr() as usize, n_points);
+    let fresh = cache.data != data_id
+        || cache.slots != slots
+        || cache.previous.len() != hypotheses.at.len()
+        || cache.drift.is_empty();
+    if fresh {
         cache.data = data_id;
-        at
-    };
-    let cache = &*cache;
-    // The hypotheses' normals, turned by their patch.
-    let now_normal: Vec<Vector3> = cache
-        .keys
-        .par_iter()
-        .map(|&(v, l)| pose.rotation[l as usize] * model.rest_normals[v as usize])
-        .collect();
+        cache.slots = slots;
+        cache.order = morton_order(&data.points);
+        cache.list = vec![0; n_points * slots];
+        cache.count = vec![0; n_points];
+        cache.cover = vec![0.0; n_points];
+        cache.searched_at = vec![0; n_points];
+        cache.drift = vec![0.0];
+    } else {
+        let moved = hypotheses
+            .at
+            .par_iter()
+            .zip(&cache.previous)
+            .map(|(a, b)| (a - b).norm_squared())
+            .reduce(|| 0.0, f64::max)
+            .sqrt();
+        let total = cache.drift.last().copied().unwrap_or(0.0) + moved;
+        cache.drift.push(total);
+    }
+    let now = (cache.drift.len() - 1) as u32;
+    let drift_now = cache.drift[now as usize];
+    cache.previous.clone_from(&hypotheses.at);
 
+    // Refresh the lists by walking the mesh; note the points (ranks) that need a search.
+    let needs_search: Vec<u32> = if fresh {
+        cache.refreshed_at = now;
+        (0..n_points as u32).collect()
+    } else if drift_now - cache.drift[cache.refreshed_at as usize] <= REUSE_DRIFT * model.mean_edge
+    {
+        Vec::new()
+    } else {
+        cache.refreshed_at = now;
+        let graph = &model.graph;
+        let hypotheses = &hypotheses;
+        let (order, drift, cover, searched_at) =
+            (&cache.order, &cache.drift, &cache.cover, &cache.searched_at);
+        cache
+            .list
+            .par_chunks_mut(slots)
+            .zip(cache.count.par_iter_mut())
+            .enumerate()
+            .map_init(
+                || {
+                    (
+                        vec![u32::MAX; n_vertices],
+                        Vec::<u32>::with_capacity(MAX_SLOTS),
+                    )
+                },
+                |(seen, old), (r, (list, count))| {
+                    if *count == 0 {
+                        let since = drift_now - drift[searched_at[r] as usize];
+                        return (cutoff + since > cover[r]).then_some(r as u32);
+                    }
+                    old.clear();
+                    old.extend_from_slice(&list[..*count as usize]);
+                    let y = data.points[order[r] as usize];
+                    let mut nearest = Nearest::new(list);
+                    let mut visit = |w: usize, nearest: &mut Nearest| {
+                        if seen[w] == r as u32 {
+                            return;
+                        }
+                        seen[w] = r as u32;
+                        for h in hypotheses.of_vertex(w) {
+                            let d2 = (y - hypotheses.position[h]).norm_squared();
+                            if d2 <= cut2 {
+                                nearest.offer(hypotheses.entry[h], d2);
+                            }
+                        }
+                    };
+                    for &e in old.iter() {
+                        let v = model.blend_vertex[e as usize] as usize;
+                        visit(v, &mut nearest);
+                        let (a, b) = (graph.start[v] as usize, graph.start[v + 1] as usize);
+                        for &w in &graph.adjacent[a..b] {
+                            visit(w as usize, &mut nearest);
+                        }
+                    }
+                    *count = nearest.count as u8;
+                    None
+                },
+            )
+            .flatten()
+            .collect()
+    };
+    if !needs_search.is_empty() {
+        let coords: Vec<[f64; 3]> = hypotheses
+            .position
+            .iter()
+            .map(|p| [p.x, p.y, p.z])
+            .collect();
+        let tree = PointTree::new(&coords);
+        let order = &cache.order;
+        let found: Vec<Vec<(usize, f64)>> = needs_search
+            .par_iter()
+            .map(|&r| tree.nearest_within(&data.points[order[r as usize] as usize], slots, cutoff))
+            .collect();
+        for (near, &r) in found.iter().zip(&needs_search) {
+            let r = r as usize;
+            for (slot, &(h, _)) in cache.list[r * slots..].iter_mut().zip(near) {
+                *slot = hypotheses.entry[h];
+            }
+            cache.count[r] = near.len() as u8;
+            cache.cover[r] = if near.len() == slots {
+                near.last().map_or(cutoff, |&(_, d2)| d2.sqrt())
+            } else {
+                cutoff
+            };
+            cache.searched_at[r] = now;
+        }
+    }
+    let cache = &*cache;
     // Priors: the outlier ratio, and the rest in proportion to patch areas.
     let total_area: f64 = model.area.iter().sum();
     let outlier_prior = options.outlier_ratio.clamp(1e-6, 1.0 - 1e-6);
@@ -362,8 +547,8 @@ pub fn e_step_cached(
         inliers: usize,
         weighted_residual: f64,
     }
-    let chunks: Vec<Chunk> = data
-        .points
+    let chunks: Vec<Chunk> = cache
+        .order
         .par_chunks(1024)
         .enumerate()
         .map(|(c, points)| {
@@ -373,21 +558,21 @@ pub fn e_step_cached(
                 weighted_residual: 0.0,
             };
             let mut found: Vec<(usize, usize, f64)> = Vec::with_capacity(16);
-            for (j, y) in points.iter().enumerate() {
-                let i = c * 1024 + j;
+            for (j, &i) in points.iter().enumerate() {
+                let r = c * 1024 + j;
+                let i = i as usize;
+                let y = &data.points[i];
                 let ny = data.normals[i];
                 found.clear();
-                let cut2 = cutoff * cutoff;
-                let from = cache.start[i] as usize;
-                let to = cache.start[i + 1] as usize;
-                for &h in &cache.candidates[from..to] {
-                    let h = h as usize;
-                    let d2_hypothesis = (y - now[h]).norm_squared();
+                let list = &cache.list[r * slots..][..cache.count[r] as usize];
+                for &e in list {
+                    let e = e as usize;
+                    let d2_hypothesis = (y - hypotheses.at[e]).norm_squared();
                     if d2_hypothesis > cut2 {
                         continue;
                     }
-                    let (vertex, _) = cache.keys[h];
-                    let cos = ny.dot(&now_normal[h]);
+                    let vertex = model.blend_vertex[e];
+                    let cos = ny.dot(&hypotheses.normal[e]);
                     let compatible = if data.oriented {
                         cos >= cos_limit
                     } else {

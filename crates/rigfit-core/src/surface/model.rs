@@ -66,6 +66,10 @@ pub struct PatchModel {
     pub blend_start: Vec<u32>,
     pub blend_patch: Vec<u32>,
     pub blend_weight: Vec<f64>,
+    /// The vertex of each blend entry (the row of the CSR above).
+    pub blend_vertex: Vec<u32>,
+    /// The reference's edges, coincident vertices welded (the E-step walks it).
+    pub graph: VertexGraph,
     /// The reference's bounding-box diagonal.
     pub diagonal: f64,
     /// Mean edge length of the reference.
@@ -205,6 +209,7 @@ impl PatchModel {
         let mut blend_start = Vec::with_capacity(rest.len() + 1);
         let mut blend_patch = Vec::new();
         let mut blend_weight = Vec::new();
+        let mut blend_vertex = Vec::new();
         blend_start.push(0u32);
         for v in 0..rest.len() {
             let own = vertex_patch[v];
@@ -212,6 +217,7 @@ impl PatchModel {
             for k in std::iter::once(own).chain(neighbours[own as usize].iter().copied()) {
                 let d2 = (rest[v] - rest_centre[k as usize]).norm_squared();
                 blend_patch.push(k);
+                blend_vertex.push(v as u32);
                 blend_weight.push((-d2 / (2.0 * width * width)).exp().max(1e-300));
             }
             let total: f64 = blend_weight[first..].iter().sum();
@@ -239,6 +245,8 @@ impl PatchModel {
             blend_start,
             blend_patch,
             blend_weight,
+            blend_vertex,
+            graph,
             diagonal,
             mean_edge: mean_edge.max(1e-12 * diagonal),
         })

@@ -5,10 +5,14 @@
 //! a vertex blends its patch's neighbours, which may not neighbour each other). The pattern
 //! never changes, so its symbolic Cholesky factorisation is computed once and reused.
 
-use faer::Side;
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use std::sync::Arc;
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::cholesky::{
+    SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
+use faer::{Conj, Par, Side};
 use rayon::prelude::*;
 
 use super::estep::VertexTargets;
@@ -17,6 +21,10 @@ use crate::math::{Matrix3, Point3, Vector3, exp_rotation};
 
 /// A 6x6 block, row-major.
 type Block = [f64; 36];
+
+/// Pairs of blended patches whose share of a vertex's data term is at most this
+/// (`alpha_a alpha_b`) are majorised too (see [`PatchSystem`]).
+const SMALL_PAIR: f64 = 1e-3;
 
 /// The block pattern of the normal equations and its reusable symbolic factorisation.
 #[derive(Clone, Debug)]
@@ -28,16 +36,28 @@ pub struct PatchSystem {
     column_offset: Vec<usize>,
     /// The patches `(k, l)`, `k <= l`, of every block.
     block_patches: Vec<(u32, u32)>,
-    /// For each vertex, the block index of every pair of its blended patches
-    /// (`blend` order, row-major over the pair).
-    vertex_pairs: Vec<Vec<u32>>,
+    /// The data term's normal equations, per blend entry `(v, a)`: the block `(a, a)` and its
+    /// weight. A vertex's Jacobian sums its blended patches' (eq. 2), so its term couples
+    /// every pair of them; the cross term of a pair that is not neighbouring patches (or
+    /// whose weight `alpha_a alpha_b` is tiny) is bounded by the two patches' own terms,
+    /// `2 u^T P w <= u^T P u + w^T P w` (P positive semi-definite), and added to them here:
+    /// `alpha_a^2 + alpha_a sum_b alpha_b` over such `b`. The system's pattern stays the
+    /// patch graph (far less fill in the factorisation, fewer products to assemble), and the
+    /// step minimises a majoriser of the Gauss-Newton model, so it still descends.
+    diagonal: Vec<(u32, f64)>,
+    /// `pairs[pair_start[v]..pair_start[v + 1]]`: the pairs of blend entries of `v` kept
+    /// (`blend` positions `i < j` in the row, ordered so that `k_i < k_j`), their block
+    /// `(k_i, k_j)` and weight `alpha_i alpha_j`.
+    pair_start: Vec<u32>,
+    pairs: Vec<(u8, u8, u32, f64)>,
     /// For each neighbouring pair `(k, l)`: blocks `(k,k)`, `(l,l)`, `(min,max)`, and the
     /// rest-frame moments of its rigidity term (eq. 4) for those blocks: the weights
     /// `alpha_k(v) + alpha_l(v)` never change, so the term's normal equations cost O(1) per
     /// pair instead of O(vertices).
     rigidity_pairs: Vec<(usize, usize, [u32; 3], [OffsetMoments; 3])>,
     symbolic_matrix: SymbolicSparseColMat<usize>,
-    symbolic: SymbolicLlt<usize>,
+    /// The factorisation's structure (fill-reducing order, supernodes), computed once.
+    symbolic: Arc<SymbolicCholesky<usize>>,
     /// For each scalar entry of the CSC matrix, its block and position in the block.
     value_source: Vec<(u32, u8)>,
 }
@@ -57,16 +77,8 @@ impl PatchSystem {
             let (k, l) = if a <= b { (a, b) } else { (b, a) };
             column_rows[l].push(k as u32);
         };
-        for v in 0..model.vertex_count() {
-            let patches: Vec<usize> = model.blend(v).map(|(k, _)| k).collect();
-            for &a in &patches {
-                for &b in &patches {
-                    if a < b {
-                        add(a, b);
-                    }
-                }
-            }
-        }
+        // The pattern is the patch graph: blend pairs that are not neighbours are majorised
+        // onto the diagonal (see `vertex_pairs`), so they add no fill.
         for (k, l) in model.neighbour_pairs() {
             add(k, l);
         }
@@ -93,18 +105,36 @@ impl PatchSystem {
                 .expect("every pair is in the pattern");
             (column_offset[l] + slot) as u32
         };
-        let vertex_pairs: Vec<Vec<u32>> = (0..model.vertex_count())
-            .map(|v| {
-                let patches: Vec<usize> = model.blend(v).map(|(k, _)| k).collect();
-                let mut out = Vec::with_capacity(patches.len() * patches.len());
-                for &a in &patches {
-                    for &b in &patches {
-                        out.push(block_of(&column_rows, a, b));
+        let joined = |a: usize, b: usize| model.neighbours[a].binary_search(&(b as u32)).is_ok();
+        let mut diagonal = Vec::with_capacity(model.blend_patch.len());
+        let mut pair_start = Vec::with_capacity(model.vertex_count() + 1);
+        let mut pairs = Vec::new();
+        pair_start.push(0u32);
+        for v in 0..model.vertex_count() {
+            let blend: Vec<(usize, f64)> = model.blend(v).collect();
+            for (i, &(a, alpha_a)) in blend.iter().enumerate() {
+                let mut weight = alpha_a * alpha_a;
+                for (j, &(b, alpha_b)) in blend.iter().enumerate() {
+                    if i == j {
+                        continue;
+                    }
+                    if joined(a, b) && alpha_a * alpha_b > SMALL_PAIR {
+                        if a < b {
+                            pairs.push((
+                                i as u8,
+                                j as u8,
+                                block_of(&column_rows, a, b),
+                                alpha_a * alpha_b,
+                            ));
+                        }
+                    } else {
+                        weight += alpha_a * alpha_b;
                     }
                 }
-                out
-            })
-            .collect();
+                diagonal.push((block_of(&column_rows, a, a), weight));
+            }
+            pair_start.push(pairs.len() as u32);
+        }
         let rigidity_pairs = model
             .neighbour_pairs()
             .into_iter()
@@ -141,14 +171,22 @@ impl PatchSystem {
             }
         }
         let symbolic_matrix = SymbolicSparseColMat::new_checked(dim, dim, col_ptr, None, row_idx);
-        let symbolic = SymbolicLlt::try_new(symbolic_matrix.as_ref(), Side::Upper)
-            .map_err(|_| SolveError::Factorisation)?;
+        let symbolic = factorize_symbolic_cholesky(
+            symbolic_matrix.as_ref(),
+            Side::Upper,
+            SymmetricOrdering::Amd,
+            Default::default(),
+        )
+        .map_err(|_| SolveError::Factorisation)?;
+        let symbolic = Arc::new(symbolic);
         Ok(Self {
             patch_count: n,
             column_rows,
             column_offset,
             block_patches,
-            vertex_pairs,
+            diagonal,
+            pair_start,
+            pairs,
             rigidity_pairs,
             symbolic_matrix,
             symbolic,
@@ -168,9 +206,34 @@ impl PatchSystem {
             .map(|&(b, e)| blocks[b as usize][e as usize])
             .collect();
         let matrix = SparseColMatRef::new(self.symbolic_matrix.as_ref(), &values);
-        let llt = Llt::try_new_with_symbolic(self.symbolic.clone(), matrix, Side::Upper)
+        // One thread: the system is small (six unknowns a patch), and handing its supernodes
+        // to a thread pool costs more than it saves.
+        let par = Par::Seq;
+        let symbolic = &*self.symbolic;
+        let mut factor = vec![0.0; symbolic.len_val()];
+        let mut memory = MemBuffer::new(
+            symbolic
+                .factorize_numeric_llt_scratch::<f64>(par, Default::default())
+                .or(symbolic.solve_in_place_scratch::<f64>(1, par)),
+        );
+        let stack = MemStack::new(&mut memory);
+        let llt = symbolic
+            .factorize_numeric_llt(
+                &mut factor,
+                matrix,
+                Side::Upper,
+                Default::default(),
+                par,
+                stack,
+                Default::default(),
+            )
             .map_err(|_| SolveError::Factorisation)?;
-        llt.solve_in_place(faer::ColMut::from_slice_mut(rhs));
+        llt.solve_in_place_with_conj(
+            Conj::No,
+            faer::MatMut::from_column_major_slice_mut(rhs, self.symbolic.nrows(), 1),
+            par,
+            stack,
+        );
         if rhs.iter().all(|x| x.is_finite()) {
             Ok(())
         } else {
@@ -334,6 +397,26 @@ impl DataBlockSums {
         self.shift_shift += other.shift_shift;
     }
 
+    /// Adds one vertex's share `J_a^T P J_b` (weights `isotropic` and `along_normal` times the
+    /// blend weights), from rest offsets and `q x n` for patches `a` and `b`.
+    #[inline]
+    fn add_vertex(
+        &mut self,
+        isotropic: f64,
+        along_normal: f64,
+        normal: &Vector3,
+        offsets: (&Vector3, &Vector3),
+        q_cross_n: (&Vector3, &Vector3),
+    ) {
+        self.isotropic.add(isotropic, offsets.0, offsets.1);
+        let ua = q_cross_n.0 * along_normal;
+        let na = normal * along_normal;
+        self.rotation_rotation += ua * q_cross_n.1.transpose();
+        self.rotation_shift += ua * normal.transpose();
+        self.shift_rotation += na * q_cross_n.1.transpose();
+        self.shift_shift += na * normal.transpose();
+    }
+
     fn add_to_block(&self, block: &mut Block, ra: &Matrix3, rb: &Matrix3) {
         self.isotropic.add_to_block(block, 1.0, ra, rb);
         for r in 0..3 {
@@ -452,25 +535,32 @@ pub fn gauss_newton_step(
                     let q = pose.rotation[k] * rest_offset;
                     (k, a, rest_offset, q, q.cross(&normal))
                 }));
-                let pairs = &system.vertex_pairs[v];
-                let m = blend.len();
-                for (ia, &(ka, aa, offset_a, qa, qa_cross_n)) in blend.iter().enumerate() {
-                    add_jtr(&mut gradient[6 * ka..6 * ka + 6], aa, &qa, &pr);
-                    for (ib, &(kb, ab, offset_b, _, qb_cross_n)) in blend.iter().enumerate() {
-                        if ka > kb {
-                            continue;
-                        }
-                        let alphas = aa * ab;
-                        let sum = &mut sums[pairs[ia * m + ib] as usize];
-                        sum.isotropic.add(isotropic * alphas, &offset_a, &offset_b);
-                        let c = along_normal * alphas;
-                        let ua = qa_cross_n * c;
-                        let na = normal * c;
-                        sum.rotation_rotation += ua * qb_cross_n.transpose();
-                        sum.rotation_shift += ua * normal.transpose();
-                        sum.shift_rotation += na * qb_cross_n.transpose();
-                        sum.shift_shift += na * normal.transpose();
-                    }
+                let first = model.blend_start[v] as usize;
+                for (i, &(k, alpha, offset, q, q_cross_n)) in blend.iter().enumerate() {
+                    add_jtr(&mut gradient[6 * k..6 * k + 6], alpha, &q, &pr);
+                    let (block, weight) = system.diagonal[first + i];
+                    sums[block as usize].add_vertex(
+                        isotropic * weight,
+                        along_normal * weight,
+                        &normal,
+                        (&offset, &offset),
+                        (&q_cross_n, &q_cross_n),
+                    );
+                }
+                let (from, to) = (
+                    system.pair_start[v] as usize,
+                    system.pair_start[v + 1] as usize,
+                );
+                for &(i, j, block, weight) in &system.pairs[from..to] {
+                    let (_, _, offset_a, _, qa_cross_n) = blend[i as usize];
+                    let (_, _, offset_b, _, qb_cross_n) = blend[j as usize];
+                    sums[block as usize].add_vertex(
+                        isotropic * weight,
+                        along_normal * weight,
+                        &normal,
+                        (&offset_a, &offset_b),
+                        (&qa_cross_n, &qb_cross_n),
+                    );
                 }
             }
             (sums, gradient)
@@ -675,21 +765,20 @@ mod reference {
                             .blend(v)
                             .map(|(k, a)| (k, a, model.offset(pose, k, v))),
                     );
-                    let pairs = &system.vertex_pairs[v];
-                    let m = blend.len();
-                    for (ia, &(ka, aa, qa)) in blend.iter().enumerate() {
-                        add_jtr(&mut gradient[6 * ka..6 * ka + 6], aa, &qa, &pr);
-                        let pa = metric * aa;
-                        for (ib, &(kb, ab, qb)) in blend.iter().enumerate() {
-                            if ka <= kb {
-                                add_jtpj(
-                                    &mut blocks[pairs[ia * m + ib] as usize],
-                                    &(pa * ab),
-                                    &qa,
-                                    &qb,
-                                );
-                            }
-                        }
+                    let first = model.blend_start[v] as usize;
+                    for (i, &(k, alpha, q)) in blend.iter().enumerate() {
+                        add_jtr(&mut gradient[6 * k..6 * k + 6], alpha, &q, &pr);
+                        let (block, weight) = system.diagonal[first + i];
+                        add_jtpj(&mut blocks[block as usize], &(metric * weight), &q, &q);
+                    }
+                    let (from, to) = (
+                        system.pair_start[v] as usize,
+                        system.pair_start[v + 1] as usize,
+                    );
+                    for &(i, j, block, weight) in &system.pairs[from..to] {
+                        let (_, _, qa) = blend[i as usize];
+                        let (_, _, qb) = blend[j as usize];
+                        add_jtpj(&mut blocks[block as usize], &(metric * weight), &qa, &qb);
                     }
                 }
                 (blocks, gradient)

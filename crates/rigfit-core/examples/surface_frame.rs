@@ -1,0 +1,57 @@
+//! One torus frame of the surface bench (5,000 vertices, 10,000 points), tracked `N` times
+//! (default 5) after two warm-up frames, for profilers and CPU-time comparisons:
+//!
+//! `RAYON_NUM_THREADS=1 valgrind --tool=callgrind target/release/examples/surface_frame 1`
+
+use std::time::Instant;
+
+use rand::SeedableRng;
+use rigfit_core::surface::cases::{bend, scan, torus};
+use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker};
+
+fn main() {
+    let repeats: usize = std::env::args()
+        .nth(1)
+        .and_then(|a| a.parse().ok())
+        .unwrap_or(5);
+    let reference = torus(100, 50);
+    let diagonal = reference.bounds().expect("bounds").diagonal();
+    let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+    let frames: Vec<Observations> = (0..3)
+        .map(|f| {
+            let moved = bend(&reference, 0.15 * f as f64);
+            let cloud = scan(
+                &moved,
+                &reference.triangles,
+                10_000,
+                0.01 * diagonal,
+                0.15,
+                &mut rng,
+            );
+            Observations::from_mesh(&cloud).expect("frame")
+        })
+        .collect();
+    let mut tracker = SurfaceTracker::new(&reference, &SurfaceOptions::default()).expect("tracker");
+    tracker.track(&frames[0]).expect("frame 0");
+    tracker.track(&frames[1]).expect("frame 1");
+    let truth = bend(&reference, 0.3);
+    for _ in 0..repeats {
+        let mut t = tracker.clone();
+        let start = Instant::now();
+        let fit = t.track(&frames[2]).expect("frame 2");
+        let error = fit
+            .positions
+            .iter()
+            .zip(&truth)
+            .map(|(p, q)| (p - q).norm())
+            .sum::<f64>()
+            / truth.len() as f64
+            / diagonal;
+        println!(
+            "{:.1} ms, {} iterations, mean error {:.4}% of the diagonal",
+            start.elapsed().as_secs_f64() * 1e3,
+            fit.iterations,
+            100.0 * error
+        );
+    }
+}
