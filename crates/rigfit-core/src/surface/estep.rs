@@ -255,41 +255,7 @@ pub fn e_step(
     )
 }
 
-/// Up to `entries.len()` nearest hypotheses, nearest first: a small sorted buffer.
-struct Nearest<'a> {
-    entries: &'a mut [u32],
-    distances: [f64; MAX_SLOTS],
-    count: usize,
-}
-
 const MAX_SLOTS: usize = 64;
-
-impl<'a> Nearest<'a> {
-    fn new(entries: &'a mut [u32]) -> Self {
-        Self {
-            entries,
-            distances: [0.0; MAX_SLOTS],
-            count: 0,
-        }
-    }
-
-    #[inline]
-    fn offer(&mut self, entry: u32, d2: f64) {
-        let slots = self.entries.len();
-        if self.count == slots && d2 >= self.distances[slots - 1] {
-            return;
-        }
-        let mut at = self.count.min(slots - 1);
-        while at > 0 && self.distances[at - 1] > d2 {
-            self.distances[at] = self.distances[at - 1];
-            self.entries[at] = self.entries[at - 1];
-            at -= 1;
-        }
-        self.distances[at] = d2;
-        self.entries[at] = entry;
-        self.count = (self.count + 1).min(slots);
-    }
-}
 
 /// The points' indices sorted along a Morton (Z-order) curve over their bounding box.
 fn morton_order(points: &[Point3]) -> Vec<u32> {
@@ -447,39 +413,55 @@ pub fn e_step_cached(
                 || {
                     (
                         vec![u32::MAX; n_vertices],
-                        Vec::<u32>::with_capacity(MAX_SLOTS),
+                        Vec::<usize>::with_capacity(MAX_SLOTS),
+                        Vec::<(f64, u32)>::with_capacity(4 * MAX_SLOTS),
                     )
                 },
-                |(seen, old), (r, (list, count))| {
+                |(seen, listed, near), (r, (list, count))| {
                     if *count == 0 {
                         let since = drift_now - drift[searched_at[r] as usize];
                         return (cutoff + since > cover[r]).then_some(r as u32);
                     }
-                    old.clear();
-                    old.extend_from_slice(&list[..*count as usize]);
                     let y = data.points[order[r] as usize];
-                    let mut nearest = Nearest::new(list);
-                    let mut visit = |w: usize, nearest: &mut Nearest| {
-                        if seen[w] == r as u32 {
-                            return;
-                        }
-                        seen[w] = r as u32;
+                    let stamp = r as u32;
+                    near.clear();
+                    let gather = |w: usize, near: &mut Vec<(f64, u32)>| {
                         for h in hypotheses.of_vertex(w) {
                             let d2 = (y - hypotheses.position[h]).norm_squared();
                             if d2 <= cut2 {
-                                nearest.offer(hypotheses.entry[h], d2);
+                                near.push((d2, hypotheses.entry[h]));
                             }
                         }
                     };
-                    for &e in old.iter() {
+                    // The listed vertices, then their neighbours, each once.
+                    listed.clear();
+                    for &e in &list[..*count as usize] {
                         let v = model.blend_vertex[e as usize] as usize;
-                        visit(v, &mut nearest);
-                        let (a, b) = (graph.start[v] as usize, graph.start[v + 1] as usize);
-                        for &w in &graph.adjacent[a..b] {
-                            visit(w as usize, &mut nearest);
+                        if seen[v] != stamp {
+                            seen[v] = stamp;
+                            listed.push(v);
+                            gather(v, near);
                         }
                     }
-                    *count = nearest.count as u8;
+                    for &v in listed.iter() {
+                        let (a, b) = (graph.start[v] as usize, graph.start[v + 1] as usize);
+                        for &w in &graph.adjacent[a..b] {
+                            let w = w as usize;
+                            if seen[w] != stamp {
+                                seen[w] = stamp;
+                                gather(w, near);
+                            }
+                        }
+                    }
+                    if near.len() > slots {
+                        near.select_nth_unstable_by(slots - 1, |a, b| a.0.total_cmp(&b.0));
+                        near.truncate(slots);
+                    }
+                    near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+                    for (slot, &(_, e)) in list.iter_mut().zip(near.iter()) {
+                        *slot = e;
+                    }
+                    *count = near.len() as u8;
                     None
                 },
             )
