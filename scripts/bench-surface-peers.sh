@@ -8,14 +8,16 @@
 #   frames included; PEER picks among rustcpd, cycpd, nricp, pycpd, all by default)
 #
 # Every tool runs on one thread (../shared/peers.md): rigfit, rustcpd (rayon) and the numpy
-# ones (BLAS) alike.
+# ones (BLAS) alike. THREADS=2 gives every tool both cores instead.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
 frames=${1:-12}
 shift || true
 peers=("$@")
-export RAYON_NUM_THREADS=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
+threads=${THREADS:-1}
+export RAYON_NUM_THREADS=$threads OMP_NUM_THREADS=$threads OPENBLAS_NUM_THREADS=$threads \
+  MKL_NUM_THREADS=$threads
 data=${RIGFIT_DATA:-$root/../shared/data}
 cargo=${CARGO:-/work/bin/cargo-slot}
 [ -x "$cargo" ] || cargo=cargo

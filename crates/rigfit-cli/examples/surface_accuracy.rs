@@ -72,11 +72,14 @@ fn track(seq: &SurfaceSequence, options: &SurfaceOptions, label: &str) -> [f64; 
 fn main() {
     // Every addition but the last, each frame starting from the previous fit with the
     // published first kernel.
-    let previous_start = SurfaceOptions {
+    let mut previous_start = SurfaceOptions {
         initial_sigma: SurfaceOptions::paper().initial_sigma,
         extrapolate: false,
         ..SurfaceOptions::default()
     };
+    previous_start.data.walk = false;
+    let mut searched = SurfaceOptions::default();
+    searched.data.walk = false;
     let methods: Vec<(&str, SurfaceOptions)> = vec![
         ("paper (point-to-point, EM sigma)", SurfaceOptions::paper()),
         (
@@ -95,8 +98,9 @@ fn main() {
             },
         ),
         ("+ annealed sigma", previous_start),
+        ("+ motion continued, narrower first kernel", searched),
         (
-            "rigfit (+ motion continued, narrower first kernel)",
+            "rigfit (+ candidate lists walked on the mesh)",
             SurfaceOptions::default(),
         ),
     ];

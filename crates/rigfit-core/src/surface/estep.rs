@@ -142,6 +142,9 @@ pub struct DataTermOptions {
     pub cutoff_sigmas: f64,
     /// At most this many predictions are looked at per point.
     pub max_candidates: usize,
+    /// Refresh the candidate lists within a frame by walking the mesh from them (see
+    /// [`EStepCache`]); false searches the kd-tree again at every refresh, as before.
+    pub walk: bool,
 }
 
 impl Default for DataTermOptions {
@@ -151,6 +154,7 @@ impl Default for DataTermOptions {
             normal_angle: 60.0,
             cutoff_sigmas: 3.0,
             max_candidates: 12,
+            walk: true,
         }
     }
 }
@@ -192,12 +196,17 @@ impl VertexTargets {
 /// mean edge since they were last refreshed; below it they are kept as they are.
 const REUSE_DRIFT: f64 = 0.25;
 
+/// Beyond this many mean edges of drift the lists are searched again rather than walked: a
+/// walk reaches one ring past the listed vertices.
+const WALK_DRIFT: f64 = 1.5;
+
 /// Each point's candidates, kept between the E-steps of one frame: the nearest few hypotheses
 /// (blend entries: vertex `v` predicted by patch `l`) within the cutoff. The first E-step on a
 /// frame searches a kd-tree; the next ones keep the lists while the hypotheses have moved by
-/// less than [`REUSE_DRIFT`] of an edge, and otherwise refresh every list by walking the mesh
-/// from it (the hypotheses of the listed vertices and of their neighbours), which keeps the
-/// lists current however far the mesh moves in small steps, without searching. A point
+/// less than [`REUSE_DRIFT`] of an edge, search again past [`WALK_DRIFT`] edges, and in
+/// between refresh every list by walking the mesh from it (the hypotheses of the listed
+/// vertices and of their neighbours), which keeps the lists current through the small
+/// steps of the later iterations without searching. A point
 /// with no candidates is searched again only when the mesh may have come within its cutoff:
 /// its list was complete within `cover` when searched, and no hypothesis has moved more than
 /// the drift summed since. Points are visited in a spatial (Morton) order, so that
@@ -392,12 +401,15 @@ pub fn e_step_cached(
     cache.previous.clone_from(&hypotheses.at);
 
     // Refresh the lists by walking the mesh; note the points (ranks) that need a search.
-    let needs_search: Vec<u32> = if fresh {
+    if fresh {
+        cache.refreshed_at = 0;
+    }
+    let since_refresh = drift_now - cache.drift[cache.refreshed_at as usize];
+    let needs_search: Vec<u32> = if since_refresh <= REUSE_DRIFT * model.mean_edge && !fresh {
+        Vec::new()
+    } else if fresh || since_refresh > WALK_DRIFT * model.mean_edge || !options.walk {
         cache.refreshed_at = now;
         (0..n_points as u32).collect()
-    } else if drift_now - cache.drift[cache.refreshed_at as usize] <= REUSE_DRIFT * model.mean_edge
-    {
-        Vec::new()
     } else {
         cache.refreshed_at = now;
         let graph = &model.graph;

@@ -86,7 +86,8 @@ pub struct SurfaceOptions {
 
 impl SurfaceOptions {
     /// The method as published: point-to-point data term, `sigma` set by the M-step alone,
-    /// every connected component on its own.
+    /// every connected component on its own, each point's nearest predictions searched for
+    /// at every refresh.
     pub fn paper() -> Self {
         let mut options = Self {
             tangential: 1.0,
@@ -96,6 +97,7 @@ impl SurfaceOptions {
             ..Self::default()
         };
         options.patches.attach_small_parts = false;
+        options.data.walk = false;
         options
     }
 }
