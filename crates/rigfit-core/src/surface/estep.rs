@@ -636,3 +636,94 @@ pub fn e_step_cached(
     }
     targets
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::surface::cases::{bend, scan, torus};
+    use crate::surface::model::PatchOptions;
+    use rand::SeedableRng;
+
+    /// Within a frame, lists refreshed by walking the mesh give the posteriors that searching
+    /// the kd-tree again gives, once the mesh has moved by a few tenths of an edge.
+    #[test]
+    fn walked_lists_match_searched_lists() {
+        let reference = torus(40, 20);
+        let model = PatchModel::new(&reference, &PatchOptions::default()).expect("model");
+        let diagonal = model.diagonal;
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let truth = bend(&reference, 0.2);
+        let cloud = scan(
+            &truth,
+            &reference.triangles,
+            4000,
+            0.003 * diagonal,
+            0.1,
+            &mut rng,
+        );
+        let data = Observations::from_mesh(&cloud).expect("frame");
+        let sigma = 0.02 * diagonal;
+        let mut pose = model.rest_pose();
+        let mut walked = EStepCache::default();
+        let mut searched = EStepCache::default();
+        let walking = DataTermOptions::default();
+        let searching = DataTermOptions {
+            walk: false,
+            ..DataTermOptions::default()
+        };
+        for step in 0..4 {
+            // Every patch slides by 0.4 of an edge along x: a refresh each step.
+            for c in &mut pose.centre {
+                c.x += 0.4 * model.mean_edge;
+            }
+            let positions = model.positions(&pose);
+            let a = e_step_cached(
+                &model,
+                &pose,
+                &positions,
+                &data,
+                sigma,
+                &walking,
+                &mut walked,
+            );
+            let b = e_step_cached(
+                &model,
+                &pose,
+                &positions,
+                &data,
+                sigma,
+                &searching,
+                &mut searched,
+            );
+            let (wa, wb) = (a.total_weight(), b.total_weight());
+            assert!(wb > 100.0, "step {step}: {wb}");
+            assert!(
+                (wa - wb).abs() < 0.01 * wb,
+                "step {step}: {wa} against {wb}"
+            );
+            let moved: f64 = a
+                .weight
+                .iter()
+                .zip(&b.weight)
+                .map(|(x, y)| (x - y).abs())
+                .sum();
+            assert!(moved < 0.02 * wb, "step {step}: {moved} of {wb}");
+        }
+    }
+
+    #[test]
+    fn morton_order_is_a_permutation_that_keeps_neighbours_close() {
+        let points: Vec<Point3> = (0..1000)
+            .map(|i| Point3::new((i % 10) as f64, ((i / 10) % 10) as f64, (i / 100) as f64))
+            .collect();
+        let mut order = morton_order(&points);
+        let steps: f64 = order
+            .windows(2)
+            .map(|w| (points[w[0] as usize] - points[w[1] as usize]).norm())
+            .sum();
+        // A random order would step about 5 units on average.
+        assert!(steps / 999.0 < 2.0, "{}", steps / 999.0);
+        order.sort_unstable();
+        assert!(order.iter().enumerate().all(|(i, &o)| o as usize == i));
+    }
+}
