@@ -5,8 +5,7 @@
 
 use std::time::Instant;
 
-use rand::SeedableRng;
-use rigfit_core::surface::cases::{bend, scan, torus};
+use rigfit_core::surface::cases::{bend, bending_torus_scans};
 use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker};
 
 fn main() {
@@ -14,22 +13,11 @@ fn main() {
         .nth(1)
         .and_then(|a| a.parse().ok())
         .unwrap_or(5);
-    let reference = torus(100, 50);
+    let (reference, scans) = bending_torus_scans(3, 3);
     let diagonal = reference.bounds().expect("bounds").diagonal();
-    let mut rng = rand::rngs::StdRng::seed_from_u64(3);
-    let frames: Vec<Observations> = (0..3)
-        .map(|f| {
-            let moved = bend(&reference, 0.15 * f as f64);
-            let cloud = scan(
-                &moved,
-                &reference.triangles,
-                10_000,
-                0.01 * diagonal,
-                0.15,
-                &mut rng,
-            );
-            Observations::from_mesh(&cloud).expect("frame")
-        })
+    let frames: Vec<Observations> = scans
+        .iter()
+        .map(|cloud| Observations::from_mesh(cloud).expect("frame"))
         .collect();
     let mut tracker = SurfaceTracker::new(&reference, &SurfaceOptions::default()).expect("tracker");
     tracker.track(&frames[0]).expect("frame 0");

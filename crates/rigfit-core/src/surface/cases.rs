@@ -4,7 +4,7 @@
 //! Gaussian noise, outliers (a floor slab and random clutter) and, for some frames, a hole
 //! where a limb is not seen. Used by tests, benches and the peer comparison.
 
-use rand::Rng;
+use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
 use crate::geometry::{Aabb, TriMesh};
@@ -298,6 +298,29 @@ pub fn bend(mesh: &TriMesh, amount: f64) -> Vec<Point3> {
                 + Vector3::new(0.0, amount * 0.2, 0.0)
         })
         .collect()
+}
+
+/// The speed case of the surface bench: a 5,000-vertex torus (100 x 50) and `frames` scans
+/// of it bent 0.15 more each frame ([`bend`]), 10,000 points each with 1% noise and 15%
+/// clutter ([`scan`]), drawn with `seed`.
+pub fn bending_torus_scans(frames: usize, seed: u64) -> (TriMesh, Vec<TriMesh>) {
+    let reference = torus(100, 50);
+    let diagonal = reference.bounds().map_or(1.0, |b| b.diagonal());
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let scans = (0..frames)
+        .map(|f| {
+            let moved = bend(&reference, 0.15 * f as f64);
+            scan(
+                &moved,
+                &reference.triangles,
+                10_000,
+                0.01 * diagonal,
+                0.15,
+                &mut rng,
+            )
+        })
+        .collect();
+    (reference, scans)
 }
 
 /// A scan of `vertices` (with `triangles`): `count` points, Gaussian noise of `noise` (per
