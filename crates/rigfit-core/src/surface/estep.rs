@@ -200,6 +200,9 @@ const REUSE_DRIFT: f64 = 0.25;
 /// walk reaches one ring past the listed vertices.
 const WALK_DRIFT: f64 = 1.5;
 
+/// The most candidates a point keeps (`DataTermOptions::max_candidates` is clamped to it).
+const MAX_SLOTS: usize = 64;
+
 /// Each point's candidates, kept between the E-steps of one frame: the nearest few hypotheses
 /// (blend entries: vertex `v` predicted by patch `l`) within the cutoff. The first E-step on a
 /// frame searches a kd-tree; the next ones keep the lists while the hypotheses have moved by
@@ -263,8 +266,6 @@ pub fn e_step(
         &mut EStepCache::default(),
     )
 }
-
-const MAX_SLOTS: usize = 64;
 
 /// The points' indices sorted along a Morton (Z-order) curve over their bounding box.
 fn morton_order(points: &[Point3]) -> Vec<u32> {
@@ -385,6 +386,7 @@ pub fn e_step_cached(
         cache.cover = vec![0.0; n_points];
         cache.searched_at = vec![0; n_points];
         cache.drift = vec![0.0];
+        cache.refreshed_at = 0;
     } else {
         let moved = hypotheses
             .at
@@ -400,10 +402,7 @@ pub fn e_step_cached(
     let drift_now = cache.drift[now as usize];
     cache.previous.clone_from(&hypotheses.at);
 
-    // Refresh the lists by walking the mesh; note the points (ranks) that need a search.
-    if fresh {
-        cache.refreshed_at = 0;
-    }
+    // Keep, walk or search the lists; note the points (ranks) that need a search.
     let since_refresh = drift_now - cache.drift[cache.refreshed_at as usize];
     let needs_search: Vec<u32> = if since_refresh <= REUSE_DRIFT * model.mean_edge && !fresh {
         Vec::new()

@@ -22,7 +22,6 @@ pub use model::{PatchModel, PatchOptions, PatchPose};
 pub use solve::{PatchSystem, SolveError, StepWeights, gauss_newton_step};
 
 use crate::geometry::TriMesh;
-
 use crate::math::{Point3, Vector3};
 
 /// Problems with the inputs of surface tracking. Each names the element at fault.

@@ -49,7 +49,7 @@ pub struct PatchSystem {
     /// (`blend` positions `i < j` in the row, ordered so that `k_i < k_j`), their block
     /// `(k_i, k_j)` and weight `alpha_i alpha_j`.
     pair_start: Vec<u32>,
-    pairs: Vec<(u8, u8, u32, f64)>,
+    pairs: Vec<(u16, u16, u32, f64)>,
     /// For each neighbouring pair `(k, l)`: blocks `(k,k)`, `(l,l)`, `(min,max)`, and the
     /// rest-frame moments of its rigidity term (eq. 4) for those blocks: the weights
     /// `alpha_k(v) + alpha_l(v)` never change, so the term's normal equations cost O(1) per
@@ -78,7 +78,7 @@ impl PatchSystem {
             column_rows[l].push(k as u32);
         };
         // The pattern is the patch graph: blend pairs that are not neighbours are majorised
-        // onto the diagonal (see `vertex_pairs`), so they add no fill.
+        // onto the diagonal (see `diagonal`), so they add no fill.
         for (k, l) in model.neighbour_pairs() {
             add(k, l);
         }
@@ -121,8 +121,8 @@ impl PatchSystem {
                     if joined(a, b) && alpha_a * alpha_b > SMALL_PAIR {
                         if a < b {
                             pairs.push((
-                                i as u8,
-                                j as u8,
+                                i as u16,
+                                j as u16,
                                 block_of(&column_rows, a, b),
                                 alpha_a * alpha_b,
                             ));
@@ -192,6 +192,11 @@ impl PatchSystem {
             symbolic,
             value_source,
         })
+    }
+
+    /// The pairs of blend entries of vertex `v` kept in the data term (see `pairs`).
+    fn vertex_pairs(&self, v: usize) -> &[(u16, u16, u32, f64)] {
+        &self.pairs[self.pair_start[v] as usize..self.pair_start[v + 1] as usize]
     }
 
     pub fn block_count(&self) -> usize {
@@ -547,11 +552,7 @@ pub fn gauss_newton_step(
                         (&q_cross_n, &q_cross_n),
                     );
                 }
-                let (from, to) = (
-                    system.pair_start[v] as usize,
-                    system.pair_start[v + 1] as usize,
-                );
-                for &(i, j, block, weight) in &system.pairs[from..to] {
+                for &(i, j, block, weight) in system.vertex_pairs(v) {
                     let (_, _, offset_a, _, qa_cross_n) = blend[i as usize];
                     let (_, _, offset_b, _, qb_cross_n) = blend[j as usize];
                     sums[block as usize].add_vertex(
@@ -771,11 +772,7 @@ mod reference {
                         let (block, weight) = system.diagonal[first + i];
                         add_jtpj(&mut blocks[block as usize], &(metric * weight), &q, &q);
                     }
-                    let (from, to) = (
-                        system.pair_start[v] as usize,
-                        system.pair_start[v + 1] as usize,
-                    );
-                    for &(i, j, block, weight) in &system.pairs[from..to] {
+                    for &(i, j, block, weight) in system.vertex_pairs(v) {
                         let (_, _, qa) = blend[i as usize];
                         let (_, _, qb) = blend[j as usize];
                         add_jtpj(&mut blocks[block as usize], &(metric * weight), &qa, &qb);
