@@ -72,14 +72,11 @@ fn track(seq: &SurfaceSequence, options: &SurfaceOptions, label: &str) -> [f64; 
 fn main() {
     // Every addition but the last, each frame starting from the previous fit with the
     // published first kernel.
-    let mut previous_start = SurfaceOptions {
+    let previous_start = SurfaceOptions {
         initial_sigma: SurfaceOptions::paper().initial_sigma,
         extrapolate: false,
         ..SurfaceOptions::default()
     };
-    previous_start.data.walk = false;
-    let mut searched = SurfaceOptions::default();
-    searched.data.walk = false;
     let methods: Vec<(&str, SurfaceOptions)> = vec![
         ("paper (point-to-point, EM sigma)", SurfaceOptions::paper()),
         (
@@ -98,10 +95,16 @@ fn main() {
             },
         ),
         ("+ annealed sigma", previous_start),
-        ("+ motion continued, narrower first kernel", searched),
         (
-            "rigfit (+ candidate lists walked on the mesh)",
+            "rigfit (+ motion continued, narrower first kernel)",
             SurfaceOptions::default(),
+        ),
+        (
+            "rigfit --merge 2 (points merged by cubes of two spacings)",
+            SurfaceOptions {
+                merge_cell: 2.0,
+                ..SurfaceOptions::default()
+            },
         ),
     ];
     println!(

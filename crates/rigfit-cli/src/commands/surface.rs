@@ -24,7 +24,8 @@ pub struct SurfaceArgs {
     /// Output folder: frame_00000.ply, ... (the reference's vertices, moved, and its faces).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Write a JSON report: per frame the file, inlier count, rms residual and seconds.
+    /// Write a JSON report: per frame the file, inlier count, rms residual, EM
+    /// iterations, final sigma and seconds.
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// Largest patch radius, as a fraction of the reference's bounding-box diagonal.
@@ -39,6 +40,11 @@ pub struct SurfaceArgs {
     /// EM iterations per frame at most.
     #[arg(long, default_value_t = SurfaceOptions::default().max_iterations)]
     pub iterations: usize,
+    /// Merge each frame's points by cubes of this many point spacings (and by normal
+    /// direction) before fitting: fewer points to search, at a small bias on coarse meshes
+    /// (0: every point, the default; 2 is about twice as fast on the real assets).
+    #[arg(long, default_value_t = SurfaceOptions::default().merge_cell)]
+    pub merge: f64,
     /// Draw a contact sheet of evenly spaced frames (the moved reference shaded flat over the
     /// frame's points) with inliers and time per frame, as a .png.
     #[arg(long)]
@@ -85,11 +91,17 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
     options.data.outlier_ratio = args.outliers;
     options.rigidity = args.rigidity;
     options.max_iterations = args.iterations.max(1);
+    options.merge_cell = args.merge;
     if !(options.patches.radius > 0.0 && options.patches.radius.is_finite()) {
         return Err(anyhow!("--patch-radius: expected a positive fraction"));
     }
     if !(0.0..1.0).contains(&options.data.outlier_ratio) {
         return Err(anyhow!("--outliers: expected a fraction in [0, 1)"));
+    }
+    if !(options.merge_cell >= 0.0 && options.merge_cell.is_finite()) {
+        return Err(anyhow!(
+            "--merge: expected a non-negative number of point spacings"
+        ));
     }
     if !(options.rigidity >= 0.0 && options.rigidity.is_finite()) {
         return Err(anyhow!("--rigidity: expected a non-negative number"));
@@ -140,6 +152,8 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
             "file": path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
             "inliers": fit.inliers,
             "rms": fit.rms,
+            "iterations": fit.iterations,
+            "sigma": fit.sigma,
             "seconds": seconds,
         }));
     }

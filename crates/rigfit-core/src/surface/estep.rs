@@ -4,9 +4,9 @@
 //! position of `v_i^k`, the closest vertex of `P_k` with a compatible normal among the
 //! predictions of `P_k` and of its neighbours (the multi-hypothesis mechanism, fig. 1).
 //!
-//! Each point keeps a list of its nearest few predictions within a cutoff of a few `sigma`:
-//! found in a kd-tree on a frame's first E-step, then kept up to date by walking the mesh
-//! from the list ([`EStepCache`]). The cost is linear in the number of points and no
+//! Each point keeps a list of its nearest few predictions within a cutoff of a few `sigma`,
+//! found in a kd-tree ([`super::nearest`]) on a frame's first E-step and searched again only
+//! where the mesh around the listed vertices has moved ([`EStepCache`]). The cost is linear in the number of points and no
 //! points-by-patches matrix is ever formed. Posteriors (eq. 8) are collapsed per vertex into
 //! the sums the M-step needs.
 
@@ -16,6 +16,7 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 
 use super::model::{PatchModel, PatchPose};
+use super::nearest::{NearTree, NearestFew};
 use crate::geometry::Aabb;
 use crate::math::{Matrix3, Point3, Vector3};
 
@@ -129,6 +130,76 @@ pub struct Observations {
     /// False when the normals' signs are unknown (estimated from the points): a normal is
     /// then compatible with its opposite too.
     pub oriented: bool,
+    /// How many observed points each point stands for (see [`Observations::merged`]); empty
+    /// when each stands for itself.
+    pub counts: Vec<u32>,
+}
+
+impl Observations {
+    /// How many observed points point `i` stands for.
+    #[inline]
+    pub fn count(&self, i: usize) -> u32 {
+        self.counts.get(i).copied().unwrap_or(1)
+    }
+
+    /// The points merged by cubes of side `cell` and by normal direction (the axis the normal
+    /// is closest to, and its sign when normals are oriented, so that the two sides of a
+    /// thin part stay apart): one point per group at the mean of its points, with their
+    /// mean normal, standing for all of them. The E-step counts each merged point as many
+    /// times, so the data term is the full cloud's with every point moved to its group's
+    /// mean (which also averages the sensor's noise), while the search and the posteriors
+    /// cost a fraction. Cubes of about two point spacings keep the means within a small
+    /// fraction of a spacing of a curved surface.
+    pub fn merged(&self, cell: f64) -> Observations {
+        let Some(bounds) = Aabb::from_points(&self.points) else {
+            return self.clone();
+        };
+        if !(cell > 0.0 && cell.is_finite()) || self.points.len() < 2 {
+            return self.clone();
+        }
+        const SIDE: u64 = (1 << 20) - 1;
+        let cube = |x: f64, low: f64| (((x - low) / cell) as u64).min(SIDE);
+        let mut keyed: Vec<(u64, u32)> = self
+            .points
+            .iter()
+            .zip(&self.normals)
+            .enumerate()
+            .map(|(i, (p, n))| {
+                let axis = (0..3)
+                    .max_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs()))
+                    .unwrap_or(0);
+                let side = if self.oriented && n[axis] < 0.0 { 3 } else { 0 };
+                let key = cube(p.x, bounds.min.x)
+                    | (cube(p.y, bounds.min.y) << 20)
+                    | (cube(p.z, bounds.min.z) << 40)
+                    | (((axis + side) as u64) << 60);
+                (key, i as u32)
+            })
+            .collect();
+        keyed.sort_unstable();
+        let mut merged = Observations {
+            oriented: self.oriented,
+            ..Observations::default()
+        };
+        for group in keyed.chunk_by(|a, b| a.0 == b.0) {
+            let first = self.normals[group[0].1 as usize];
+            let (mut sum, mut normal, mut count) = (Vector3::zeros(), Vector3::zeros(), 0u32);
+            for &(_, i) in group {
+                let (i, c) = (i as usize, self.count(i as usize));
+                sum += self.points[i].coords * c as f64;
+                let n = self.normals[i];
+                // Unoriented normals: turned to agree with the group's first.
+                normal += if n.dot(&first) < 0.0 { -n } else { n } * c as f64;
+                count += c;
+            }
+            merged.points.push(Point3::from(sum / count.max(1) as f64));
+            merged
+                .normals
+                .push(normal.try_normalize(1e-12).unwrap_or(first));
+            merged.counts.push(count);
+        }
+        merged
+    }
 }
 
 /// Settings of the data term.
@@ -142,9 +213,6 @@ pub struct DataTermOptions {
     pub cutoff_sigmas: f64,
     /// At most this many predictions are looked at per point.
     pub max_candidates: usize,
-    /// Refresh the candidate lists within a frame by walking the mesh from them (see
-    /// [`EStepCache`]); false searches the kd-tree again at every refresh, as before.
-    pub walk: bool,
 }
 
 impl Default for DataTermOptions {
@@ -154,7 +222,6 @@ impl Default for DataTermOptions {
             normal_angle: 60.0,
             cutoff_sigmas: 3.0,
             max_candidates: 12,
-            walk: true,
         }
     }
 }
@@ -192,28 +259,22 @@ impl VertexTargets {
     }
 }
 
-/// The candidate lists are walked again once some hypothesis moved by this fraction of a
-/// mean edge since they were last refreshed; below it they are kept as they are.
+/// A point's list is searched again once the hypotheses of its listed vertices, or of their
+/// neighbours, moved by this fraction of a mean edge since it was searched.
 const REUSE_DRIFT: f64 = 0.25;
 
-/// Beyond this many mean edges of drift the lists are searched again rather than walked: a
-/// walk reaches one ring past the listed vertices.
-const WALK_DRIFT: f64 = 1.5;
-
 /// The most candidates a point keeps (`DataTermOptions::max_candidates` is clamped to it).
-const MAX_SLOTS: usize = 64;
+const MAX_SLOTS: usize = super::nearest::MAX_NEAREST;
 
 /// Each point's candidates, kept between the E-steps of one frame: the nearest few hypotheses
 /// (blend entries: vertex `v` predicted by patch `l`) within the cutoff. The first E-step on a
-/// frame searches a kd-tree; the next ones keep the lists while the hypotheses have moved by
-/// less than [`REUSE_DRIFT`] of an edge, search again past [`WALK_DRIFT`] edges, and in
-/// between refresh every list by walking the mesh from it (the hypotheses of the listed
-/// vertices and of their neighbours), which keeps the lists current through the small
-/// steps of the later iterations without searching. A point
-/// with no candidates is searched again only when the mesh may have come within its cutoff:
-/// its list was complete within `cover` when searched, and no hypothesis has moved more than
-/// the drift summed since. Points are visited in a spatial (Morton) order, so that
-/// neighbouring points read neighbouring memory.
+/// frame searches a kd-tree for every point; the next ones search again only the points whose
+/// listed vertices' hypotheses (or their neighbours') moved by more than [`REUSE_DRIFT`] of an
+/// edge since their search (most of the mesh settles within a few iterations). A point with
+/// no candidates is searched again only when the mesh may have come within its cutoff: its
+/// list was complete within `cover` when searched, and no hypothesis has moved more than the
+/// drift summed since. Points are visited in a spatial (Morton) order, so that neighbouring
+/// points read neighbouring memory.
 #[derive(Clone, Debug, Default)]
 pub struct EStepCache {
     /// The data the lists are for (address and length).
@@ -233,8 +294,9 @@ pub struct EStepCache {
     drift: Vec<f64>,
     /// Every blend entry's prediction at the last E-step.
     previous: Vec<Point3>,
-    /// The E-step that last walked or searched the lists.
-    refreshed_at: u32,
+    /// `vertex_drift[t][v]`: how far the hypotheses of `v` and of its neighbours moved (the
+    /// largest), summed over E-steps `1..=t`.
+    vertex_drift: Vec<Vec<f32>>,
 }
 
 impl EStepCache {
@@ -302,10 +364,11 @@ struct Hypotheses {
     /// Every blend entry's prediction, and the vertex's normal turned by the entry's patch.
     at: Vec<Point3>,
     normal: Vec<Vector3>,
-    /// `entry[start[v]..start[v + 1]]`: the blend entries of `v` kept, with their positions.
-    start: Vec<u32>,
+    /// The blend entries kept, vertex by vertex, and their positions in single precision
+    /// relative to `origin` (for choosing neighbours, not for the posteriors).
     entry: Vec<u32>,
-    position: Vec<Point3>,
+    origin: Point3,
+    local: Vec<[f32; 3]>,
 }
 
 impl Hypotheses {
@@ -324,10 +387,9 @@ impl Hypotheses {
             })
             .unzip();
         let merge2 = merge * merge;
-        let mut start = Vec::with_capacity(model.vertex_count() + 1);
         let mut entry = Vec::with_capacity(model.vertex_count() * 2);
-        let mut position = Vec::with_capacity(model.vertex_count() * 2);
-        start.push(0);
+        let origin = at.first().copied().unwrap_or_else(Point3::origin);
+        let mut local = Vec::with_capacity(model.vertex_count() * 2);
         for v in 0..model.vertex_count() {
             let (a, b) = (
                 model.blend_start[v] as usize,
@@ -336,23 +398,28 @@ impl Hypotheses {
             for e in a..b {
                 if e == a || (at[e] - at[a]).norm_squared() > merge2 {
                     entry.push(e as u32);
-                    position.push(at[e]);
+                    local.push(to_local(&at[e], &origin));
                 }
             }
-            start.push(entry.len() as u32);
         }
         Self {
             at,
             normal,
-            start,
             entry,
-            position,
+            origin,
+            local,
         }
     }
+}
 
-    fn of_vertex(&self, v: usize) -> std::ops::Range<usize> {
-        self.start[v] as usize..self.start[v + 1] as usize
-    }
+/// `p - origin` in single precision.
+#[inline]
+fn to_local(p: &Point3, origin: &Point3) -> [f32; 3] {
+    [
+        (p.x - origin.x) as f32,
+        (p.y - origin.y) as f32,
+        (p.z - origin.z) as f32,
+    ]
 }
 
 /// [`e_step`] keeping each point's candidates in `cache` between the E-steps of a frame (see
@@ -371,7 +438,9 @@ pub fn e_step_cached(
     let cutoff = options.cutoff_sigmas * sigma;
     let cut2 = cutoff * cutoff;
     let slots = options.max_candidates.clamp(1, MAX_SLOTS);
-    let hypotheses = Hypotheses::new(model, pose, 0.3 * model.mean_edge);
+    // Predictions of one vertex closer than this to its own patch's add nothing to search.
+    let merge = 0.3 * model.mean_edge;
+    let hypotheses = Hypotheses::new(model, pose, merge);
     let data_id = (data.points.as_ptr() as usize, n_points);
     let fresh = cache.data != data_id
         || cache.slots != slots
@@ -386,119 +455,112 @@ pub fn e_step_cached(
         cache.cover = vec![0.0; n_points];
         cache.searched_at = vec![0; n_points];
         cache.drift = vec![0.0];
-        cache.refreshed_at = 0;
+        cache.vertex_drift.clear();
+        cache.vertex_drift.push(vec![0.0; n_vertices]);
     } else {
-        let moved = hypotheses
-            .at
-            .par_iter()
-            .zip(&cache.previous)
-            .map(|(a, b)| (a - b).norm_squared())
-            .reduce(|| 0.0, f64::max)
-            .sqrt();
-        let total = cache.drift.last().copied().unwrap_or(0.0) + moved;
+        // How far each vertex's hypotheses moved since the last E-step, the largest over the
+        // vertex and its neighbours (a hypothesis one ring away may come into a list).
+        let moved: Vec<f32> = (0..n_vertices)
+            .into_par_iter()
+            .map(|v| {
+                let (a, b) = (
+                    model.blend_start[v] as usize,
+                    model.blend_start[v + 1] as usize,
+                );
+                (a..b)
+                    .map(|e| (hypotheses.at[e] - cache.previous[e]).norm_squared())
+                    .fold(0.0, f64::max)
+                    .sqrt() as f32
+            })
+            .collect();
+        let graph = &model.graph;
+        let last = cache.vertex_drift.last().expect("set on a fresh frame");
+        let summed: Vec<f32> = (0..n_vertices)
+            .into_par_iter()
+            .map(|v| {
+                let (a, b) = (graph.start[v] as usize, graph.start[v + 1] as usize);
+                let near = graph.adjacent[a..b]
+                    .iter()
+                    .map(|&w| moved[w as usize])
+                    .fold(moved[v], f32::max);
+                last[v] + near
+            })
+            .collect();
+        cache.vertex_drift.push(summed);
+        let largest = moved.iter().copied().fold(0.0, f32::max) as f64;
+        let total = cache.drift.last().copied().unwrap_or(0.0) + largest;
         cache.drift.push(total);
     }
     let now = (cache.drift.len() - 1) as u32;
     let drift_now = cache.drift[now as usize];
     cache.previous.clone_from(&hypotheses.at);
 
-    // Keep, walk or search the lists; note the points (ranks) that need a search.
-    let since_refresh = drift_now - cache.drift[cache.refreshed_at as usize];
-    let needs_search: Vec<u32> = if since_refresh <= REUSE_DRIFT * model.mean_edge && !fresh {
-        Vec::new()
-    } else if fresh || since_refresh > WALK_DRIFT * model.mean_edge || !options.walk {
-        cache.refreshed_at = now;
+    // Keep or search each list again, by how far the hypotheses around its vertices moved
+    // since it was searched; note the points (ranks) that need a search.
+    let needs_search: Vec<u32> = if fresh {
         (0..n_points as u32).collect()
     } else {
-        cache.refreshed_at = now;
-        let graph = &model.graph;
-        let hypotheses = &hypotheses;
-        let (order, drift, cover, searched_at) =
-            (&cache.order, &cache.drift, &cache.cover, &cache.searched_at);
-        cache
-            .list
-            .par_chunks_mut(slots)
-            .zip(cache.count.par_iter_mut())
-            .enumerate()
-            .map_init(
-                || {
-                    (
-                        vec![u32::MAX; n_vertices],
-                        Vec::<usize>::with_capacity(MAX_SLOTS),
-                        Vec::<(f64, u32)>::with_capacity(4 * MAX_SLOTS),
-                    )
-                },
-                |(seen, listed, near), (r, (list, count))| {
-                    if *count == 0 {
-                        let since = drift_now - drift[searched_at[r] as usize];
-                        return (cutoff + since > cover[r]).then_some(r as u32);
-                    }
-                    let y = data.points[order[r] as usize];
-                    let stamp = r as u32;
-                    near.clear();
-                    let gather = |w: usize, near: &mut Vec<(f64, u32)>| {
-                        for h in hypotheses.of_vertex(w) {
-                            let d2 = (y - hypotheses.position[h]).norm_squared();
-                            if d2 <= cut2 {
-                                near.push((d2, hypotheses.entry[h]));
-                            }
-                        }
-                    };
-                    // The listed vertices, then their neighbours, each once.
-                    listed.clear();
-                    for &e in &list[..*count as usize] {
+        let (list, count) = (&cache.list, &cache.count);
+        let (drift, cover, searched_at) = (&cache.drift, &cache.cover, &cache.searched_at);
+        let vertex_drift = &cache.vertex_drift;
+        let drift_here = &vertex_drift[now as usize];
+        let keep_below = (REUSE_DRIFT * model.mean_edge) as f32;
+        (0..n_points)
+            .into_par_iter()
+            .filter_map(|r| {
+                let then = searched_at[r] as usize;
+                let listed = &list[r * slots..][..count[r] as usize];
+                if listed.is_empty() {
+                    let since = drift_now - drift[then];
+                    return (cutoff + since > cover[r]).then_some(r as u32);
+                }
+                let drift_then = &vertex_drift[then];
+                let local = listed
+                    .iter()
+                    .map(|&e| {
                         let v = model.blend_vertex[e as usize] as usize;
-                        if seen[v] != stamp {
-                            seen[v] = stamp;
-                            listed.push(v);
-                            gather(v, near);
-                        }
-                    }
-                    for &v in listed.iter() {
-                        let (a, b) = (graph.start[v] as usize, graph.start[v + 1] as usize);
-                        for &w in &graph.adjacent[a..b] {
-                            let w = w as usize;
-                            if seen[w] != stamp {
-                                seen[w] = stamp;
-                                gather(w, near);
-                            }
-                        }
-                    }
-                    if near.len() > slots {
-                        near.select_nth_unstable_by(slots - 1, |a, b| a.0.total_cmp(&b.0));
-                        near.truncate(slots);
-                    }
-                    near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-                    for (slot, &(_, e)) in list.iter_mut().zip(near.iter()) {
-                        *slot = e;
-                    }
-                    *count = near.len() as u8;
-                    None
-                },
-            )
-            .flatten()
+                        drift_here[v] - drift_then[v]
+                    })
+                    .fold(0.0, f32::max);
+                (local > keep_below).then_some(r as u32)
+            })
             .collect()
     };
     if !needs_search.is_empty() {
-        let coords: Vec<[f64; 3]> = hypotheses
-            .position
-            .iter()
-            .map(|p| [p.x, p.y, p.z])
-            .collect();
-        let tree = PointTree::new(&coords);
-        let order = &cache.order;
-        let found: Vec<Vec<(usize, f64)>> = needs_search
+        let tree = NearTree::new(&hypotheses.local, &hypotheses.entry);
+        let (order, list, count) = (&cache.order, &cache.list, &cache.count);
+        let (origin, at) = (hypotheses.origin, &hypotheses.at);
+        let found: Vec<(u32, NearestFew)> = needs_search
             .par_iter()
-            .map(|&r| tree.nearest_within(&data.points[order[r as usize] as usize], slots, cutoff))
+            .map_init(
+                || NearestFew::new(slots),
+                |nearest, &r| {
+                    let y = data.points[order[r as usize] as usize];
+                    // A full list bounds the search: each of its entries is within `merge`
+                    // of a kept hypothesis, so as many lie within its farthest plus `merge`.
+                    let listed = &list[r as usize * slots..][..count[r as usize] as usize];
+                    let mut reach2 = cut2;
+                    if listed.len() == slots {
+                        let farthest = listed
+                            .iter()
+                            .map(|&e| (y - at[e as usize]).norm_squared())
+                            .fold(0.0, f64::max);
+                        reach2 = reach2.min(((farthest.sqrt() + merge) * (1.0 + 1e-4)).powi(2));
+                    }
+                    tree.nearest_within(to_local(&y, &origin), reach2 as f32, nearest);
+                    (r, nearest.clone())
+                },
+            )
             .collect();
-        for (near, &r) in found.iter().zip(&needs_search) {
-            let r = r as usize;
-            for (slot, &(h, _)) in cache.list[r * slots..].iter_mut().zip(near) {
-                *slot = hypotheses.entry[h];
+        for (r, near) in &found {
+            let r = *r as usize;
+            let near = near.as_slice();
+            for (slot, &(_, e)) in cache.list[r * slots..].iter_mut().zip(near) {
+                *slot = e;
             }
             cache.count[r] = near.len() as u8;
             cache.cover[r] = if near.len() == slots {
-                near.last().map_or(cutoff, |&(_, d2)| d2.sqrt())
+                near.last().map_or(cutoff, |&(d2, _)| (d2 as f64).sqrt())
             } else {
                 cutoff
             };
@@ -556,6 +618,7 @@ pub fn e_step_cached(
                 let i = i as usize;
                 let y = &data.points[i];
                 let ny = data.normals[i];
+                let count = data.count(i) as f64;
                 found.clear();
                 let list = &cache.list[r * slots..][..cache.count[r] as usize];
                 for &e in list {
@@ -603,12 +666,13 @@ pub fn e_step_cached(
                     let w = p / total;
                     if w > 1e-8 {
                         inlier_mass += w;
-                        chunk.entries.push((i as u32, v as u32, w));
-                        chunk.weighted_residual += w * (y - positions[v]).norm_squared();
+                        // A merged point counts as the points it stands for.
+                        chunk.entries.push((i as u32, v as u32, w * count));
+                        chunk.weighted_residual += w * count * (y - positions[v]).norm_squared();
                     }
                 }
                 if inlier_mass > 0.5 {
-                    chunk.inliers += 1;
+                    chunk.inliers += count as usize;
                 }
             }
             chunk
@@ -643,10 +707,10 @@ mod tests {
     use crate::surface::model::PatchOptions;
     use rand::SeedableRng;
 
-    /// Within a frame, lists refreshed by walking the mesh give the posteriors that searching
-    /// the kd-tree again gives, once the mesh has moved by a few tenths of an edge.
+    /// Within a frame, lists kept where the mesh barely moved and searched again where it
+    /// moved give the posteriors of searching every point afresh.
     #[test]
-    fn walked_lists_match_searched_lists() {
+    fn kept_lists_match_fresh_searches() {
         let reference = torus(40, 20);
         let model = PatchModel::new(&reference, &PatchOptions::default()).expect("model");
         let diagonal = model.diagonal;
@@ -662,52 +726,65 @@ mod tests {
         );
         let data = Observations::from_mesh(&cloud).expect("frame");
         let sigma = 0.02 * diagonal;
+        let options = DataTermOptions::default();
         let mut pose = model.rest_pose();
-        let mut walked = EStepCache::default();
-        let mut searched = EStepCache::default();
-        let walking = DataTermOptions::default();
-        let searching = DataTermOptions {
-            walk: false,
-            ..DataTermOptions::default()
-        };
-        for step in 0..4 {
-            // Every patch slides by 0.4 of an edge along x: a refresh each step.
-            for c in &mut pose.centre {
-                c.x += 0.4 * model.mean_edge;
+        let mut cache = EStepCache::default();
+        for (step, slide) in [0.0, 0.1, 0.4, 0.1, 0.6].into_iter().enumerate() {
+            // Half the patches slide along x (a tenth of an edge keeps their points' lists,
+            // more searches them again); the others stay.
+            for c in pose.centre.iter_mut().step_by(2) {
+                c.x += slide * model.mean_edge;
             }
             let positions = model.positions(&pose);
-            let a = e_step_cached(
-                &model,
-                &pose,
-                &positions,
-                &data,
-                sigma,
-                &walking,
-                &mut walked,
+            let kept = e_step_cached(
+                &model, &pose, &positions, &data, sigma, &options, &mut cache,
             );
-            let b = e_step_cached(
-                &model,
-                &pose,
-                &positions,
-                &data,
-                sigma,
-                &searching,
-                &mut searched,
-            );
-            let (wa, wb) = (a.total_weight(), b.total_weight());
+            let fresh = e_step(&model, &pose, &positions, &data, sigma, &options);
+            let (wa, wb) = (kept.total_weight(), fresh.total_weight());
             assert!(wb > 100.0, "step {step}: {wb}");
             assert!(
                 (wa - wb).abs() < 0.01 * wb,
                 "step {step}: {wa} against {wb}"
             );
-            let moved: f64 = a
+            let moved: f64 = kept
                 .weight
                 .iter()
-                .zip(&b.weight)
+                .zip(&fresh.weight)
                 .map(|(x, y)| (x - y).abs())
                 .sum();
             assert!(moved < 0.02 * wb, "step {step}: {moved} of {wb}");
         }
+    }
+
+    /// Merging keeps every point counted and the two sides of a thin part apart.
+    #[test]
+    fn merging_counts_every_point_and_keeps_sides_apart() {
+        let (mut points, mut normals) = (Vec::new(), Vec::new());
+        for i in 0..10 {
+            for j in 0..10 {
+                for (z, side) in [(0.0, 1.0), (0.001, -1.0)] {
+                    points.push(Point3::new(i as f64 * 0.01, j as f64 * 0.01, z));
+                    normals.push(Vector3::new(0.0, 0.0, side));
+                }
+            }
+        }
+        let data = Observations {
+            points,
+            normals,
+            oriented: true,
+            counts: Vec::new(),
+        };
+        let merged = data.merged(0.025);
+        assert_eq!(merged.counts.iter().sum::<u32>(), 200);
+        assert!(merged.points.len() <= 2 * 16, "{}", merged.points.len());
+        for (p, n) in merged.points.iter().zip(&merged.normals) {
+            // Each merged point is one sheet's, with that sheet's normal.
+            let sheet = if n.z > 0.0 { 0.0 } else { 0.001 };
+            assert!((p.z - sheet).abs() < 1e-12 && (n.z.abs() - 1.0).abs() < 1e-12);
+        }
+        let again = merged.merged(0.05);
+        assert_eq!(again.counts.iter().sum::<u32>(), 200);
+        assert_eq!(data.merged(0.0).points.len(), 200);
     }
 
     #[test]

@@ -11,6 +11,7 @@
 pub mod cases;
 pub mod estep;
 pub mod model;
+pub mod nearest;
 pub mod patches;
 pub mod solve;
 
@@ -43,6 +44,8 @@ pub enum SurfaceError {
     EmptyFrame,
     #[error("the frame has {normals} normals for {points} points")]
     NormalCount { normals: usize, points: usize },
+    #[error("the frame has {counts} point counts for {points} points")]
+    CountLength { counts: usize, points: usize },
     #[error(transparent)]
     Solve(#[from] SolveError),
 }
@@ -62,7 +65,9 @@ pub struct SurfaceOptions {
     /// EM iterations per frame at most.
     pub max_iterations: usize,
     /// A frame is done when the vertices moved less than this (root mean square) in an
-    /// iteration.
+    /// iteration. The default, 0.07% of the diagonal, is under a tenth of the error the
+    /// tracker reaches on the real assets; 0.05% costs a fifth more iterations for no gain
+    /// there, 0.1% loses a little on Testwuson (BENCHMARKS.md).
     pub tolerance: f64,
     /// Levenberg-Marquardt damping of the Gauss-Newton step.
     pub damping: f64,
@@ -76,17 +81,19 @@ pub struct SurfaceOptions {
     /// so that parts that moved far are still seen before the kernel narrows; 0 lets the
     /// M-step set it alone, as in the paper.
     pub anneal: f64,
-    /// Coarse-to-fine over the data: all iterations but the last `fine_iterations` see at
-    /// most this many points (an even subset); 0 uses every point throughout (the default:
-    /// on the real assets the subset cost accuracy for thin parts).
-    pub coarse_points: usize,
-    pub fine_iterations: usize,
+    /// Each frame's points are merged by cubes and by normal direction before fitting
+    /// ([`Observations::merged`]): cubes of this many times the points' mean spacing (as if
+    /// they all lay on the reference's surface); 0 fits every point (the default). At 2 a
+    /// scan keeps about half its points and the real assets track as accurately in about
+    /// two thirds of the time, but a merged point lies inside a curved surface by a fraction
+    /// of a spacing, which on coarse meshes sampled sparsely costs more than the noise it
+    /// averages (BENCHMARKS.md).
+    pub merge_cell: f64,
 }
 
 impl SurfaceOptions {
     /// The method as published: point-to-point data term, `sigma` set by the M-step alone,
-    /// every connected component on its own, each point's nearest predictions searched for
-    /// at every refresh.
+    /// every connected component on its own.
     pub fn paper() -> Self {
         let mut options = Self {
             tangential: 1.0,
@@ -96,7 +103,6 @@ impl SurfaceOptions {
             ..Self::default()
         };
         options.patches.attach_small_parts = false;
-        options.data.walk = false;
         options
     }
 }
@@ -113,13 +119,12 @@ impl Default for SurfaceOptions {
             initial_sigma: 0.025,
             min_sigma: 0.002,
             max_iterations: 12,
-            tolerance: 5e-4,
+            tolerance: 7e-4,
             damping: 1e-3,
             tangential: 0.3,
             extrapolate: true,
             anneal: 0.8,
-            coarse_points: 0,
-            fine_iterations: 4,
+            merge_cell: 0.0,
         }
     }
 }
@@ -179,6 +184,7 @@ impl Observations {
             points: mesh.vertices.clone(),
             normals,
             oriented,
+            counts: Vec::new(),
         })
     }
 
@@ -189,6 +195,12 @@ impl Observations {
         if self.normals.len() != self.points.len() {
             return Err(SurfaceError::NormalCount {
                 normals: self.normals.len(),
+                points: self.points.len(),
+            });
+        }
+        if !self.counts.is_empty() && self.counts.len() != self.points.len() {
+            return Err(SurfaceError::CountLength {
+                counts: self.counts.len(),
                 points: self.points.len(),
             });
         }
@@ -267,25 +279,13 @@ impl SurfaceTracker {
         let mut normals = self.model.normals(&self.pose);
         let mut targets = VertexTargets::default();
         let mut iterations = 0;
-        let stride = match self.options.coarse_points {
-            0 => 1,
-            n => data.points.len().div_ceil(n),
-        };
-        let coarse = (stride > 1).then(|| Observations {
-            points: data.points.iter().step_by(stride).copied().collect(),
-            normals: data.normals.iter().step_by(stride).copied().collect(),
-            oriented: data.oriented,
-        });
-        let coarse_iterations = self
-            .options
-            .max_iterations
-            .saturating_sub(self.options.fine_iterations);
-        for iteration in 0..self.options.max_iterations {
+        // The points' mean spacing were they all on the reference's surface.
+        let spacing = (self.model.area.iter().sum::<f64>() / data.points.len() as f64).sqrt();
+        let merged =
+            (self.options.merge_cell > 0.0).then(|| data.merged(self.options.merge_cell * spacing));
+        let data = merged.as_ref().unwrap_or(data);
+        for _ in 0..self.options.max_iterations {
             iterations += 1;
-            let data = match &coarse {
-                Some(c) if iteration < coarse_iterations => c,
-                _ => data,
-            };
             targets = e_step_cached(
                 &self.model,
                 &self.pose,
@@ -331,10 +331,9 @@ impl SurfaceTracker {
                 .sqrt();
             positions = moved_to;
             normals = self.model.normals(&self.pose);
-            // Done when the mesh stopped moving, sigma is no longer held up by the annealing,
-            // and every point is in play.
-            let all_points = coarse.is_none() || iteration >= coarse_iterations;
-            if moved < self.options.tolerance * diagonal && !annealing && all_points {
+            // Done when the mesh stopped moving and sigma is no longer held up by the
+            // annealing.
+            if moved < self.options.tolerance * diagonal && !annealing {
                 break;
             }
         }
@@ -424,6 +423,7 @@ mod tests {
             points: vec![Point3::origin(); 3],
             normals: vec![Vector3::x()],
             oriented: true,
+            ..Default::default()
         };
         assert!(matches!(
             tracker.track(&mismatched),
@@ -453,6 +453,7 @@ mod tests {
             points,
             normals,
             oriented: true,
+            ..Default::default()
         };
         let targets = e_step(
             &model,

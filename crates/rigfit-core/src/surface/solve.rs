@@ -8,8 +8,9 @@
 use std::sync::Arc;
 
 use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
-    SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+    CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, Par, Side};
@@ -175,7 +176,10 @@ impl PatchSystem {
             symbolic_matrix.as_ref(),
             Side::Upper,
             SymmetricOrdering::Amd,
-            Default::default(),
+            CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                ..Default::default()
+            },
         )
         .map_err(|_| SolveError::Factorisation)?;
         let symbolic = Arc::new(symbolic);
@@ -678,11 +682,14 @@ fn damp_solve_and_apply(
     Ok(())
 }
 
-/// The nearest rotation to `m` (it drifts after many products).
+/// `m` made a rotation again (products of rotations drift by rounding): Gram-Schmidt on its
+/// columns, which for a matrix this close to a rotation is the nearest one to rounding.
 fn orthonormalise(m: &Matrix3) -> Matrix3 {
-    crate::math::Quat::from_matrix(m)
-        .to_rotation_matrix()
-        .into_inner()
+    let x = m.column(0).normalize();
+    let y = m.column(1) - x * x.dot(&m.column(1));
+    let y = y.normalize();
+    let z = x.cross(&y);
+    Matrix3::from_columns(&[x, y, z])
 }
 
 #[cfg(test)]
