@@ -26,16 +26,16 @@ use crate::math::{Matrix3, Point3, Vector3};
 #[derive(Debug)]
 pub struct PointTree {
     tree: ImmutableKdTree<f32, 3>,
-    origin: [f64; 3],
+    origin: Point3,
     len: usize,
 }
 
 impl PointTree {
     pub fn new(points: &[[f64; 3]]) -> Self {
-        let origin = points.first().copied().unwrap_or([0.0; 3]);
+        let origin = Point3::from(points.first().copied().unwrap_or([0.0; 3]));
         let local: Vec<[f32; 3]> = points
             .iter()
-            .map(|p| [0, 1, 2].map(|a| (p[a] - origin[a]) as f32))
+            .map(|p| to_local(&Point3::from(*p), &origin))
             .collect();
         let tree = ImmutableKdTree::new_from_slice(&local).expect("finite points build a kd-tree");
         Self {
@@ -46,7 +46,7 @@ impl PointTree {
     }
 
     fn local(&self, p: &Point3) -> [f32; 3] {
-        [0, 1, 2].map(|a| (p[a] - self.origin[a]) as f32)
+        to_local(p, &self.origin)
     }
 
     /// The index of the nearest point (`0` for an empty tree).
@@ -151,12 +151,12 @@ impl Observations {
     /// cost a fraction. Cubes of about two point spacings keep the means within a small
     /// fraction of a spacing of a curved surface.
     pub fn merged(&self, cell: f64) -> Observations {
-        let Some(bounds) = Aabb::from_points(&self.points) else {
-            return self.clone();
-        };
         if !(cell > 0.0 && cell.is_finite()) || self.points.len() < 2 {
             return self.clone();
         }
+        let Some(bounds) = Aabb::from_points(&self.points) else {
+            return self.clone();
+        };
         const SIDE: u64 = (1 << 20) - 1;
         let cube = |x: f64, low: f64| (((x - low) / cell) as u64).min(SIDE);
         let mut keyed: Vec<(u64, u32)> = self
