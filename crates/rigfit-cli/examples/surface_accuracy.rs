@@ -100,6 +100,13 @@ fn main() {
             SurfaceOptions::default(),
         ),
         (
+            "rigfit, every point in every iteration",
+            SurfaceOptions {
+                coarse_stride: 1,
+                ..SurfaceOptions::default()
+            },
+        ),
+        (
             "rigfit --merge 2 (points merged by cubes of two spacings)",
             SurfaceOptions {
                 merge_cell: 2.0,

@@ -45,6 +45,10 @@ pub struct SurfaceArgs {
     /// (0: every point, the default; at 2 the real assets take about 0.8 of the time).
     #[arg(long, default_value_t = SurfaceOptions::default().merge_cell)]
     pub merge: f64,
+    /// A frame's first two EM iterations use one point in this many (they take up the
+    /// motion at wide kernels; the rest use every point). 1 uses every point throughout.
+    #[arg(long, default_value_t = SurfaceOptions::default().coarse_stride)]
+    pub coarse: usize,
     /// Draw a contact sheet of evenly spaced frames (the moved reference shaded flat over the
     /// frame's points) with inliers and time per frame, as a .png.
     #[arg(long)]
@@ -92,6 +96,7 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
     options.rigidity = args.rigidity;
     options.max_iterations = args.iterations.max(1);
     options.merge_cell = args.merge;
+    options.coarse_stride = args.coarse.max(1);
     if !(options.patches.radius > 0.0 && options.patches.radius.is_finite()) {
         return Err(anyhow!("--patch-radius: expected a positive fraction"));
     }

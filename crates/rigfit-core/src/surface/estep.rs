@@ -15,7 +15,7 @@ use std::num::NonZero;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 
-use super::model::{PatchModel, PatchPose};
+use super::model::{PatchModel, PatchPose, Predictions};
 use super::nearest::{NearTree, NearestFew};
 use crate::geometry::Aabb;
 use crate::math::{Matrix3, Point3, Vector3};
@@ -140,6 +140,28 @@ impl Observations {
     #[inline]
     pub fn count(&self, i: usize) -> u32 {
         self.counts.get(i).copied().unwrap_or(1)
+    }
+
+    /// One point in `stride`, in the order given, each standing for itself and the points it
+    /// skips (their counts summed). Scans come in no particular order or in scan-line order;
+    /// either way every part of the surface keeps its share of points.
+    pub fn thinned(&self, stride: usize) -> Observations {
+        if stride <= 1 {
+            return self.clone();
+        }
+        let mut thinned = Observations {
+            oriented: self.oriented,
+            ..Observations::default()
+        };
+        for start in (0..self.points.len()).step_by(stride) {
+            let end = (start + stride).min(self.points.len());
+            thinned.points.push(self.points[start]);
+            thinned.normals.push(self.normals[start]);
+            thinned
+                .counts
+                .push((start..end).map(|i| self.count(i)).sum());
+        }
+        thinned
     }
 
     /// The points merged by cubes of side `cell` and by normal direction (the axis the normal
@@ -361,9 +383,8 @@ fn morton_order(points: &[Point3]) -> Vec<u32> {
 /// its own patch, and by each neighbouring patch whose prediction differs from that by more
 /// than `merge` (eq. 1; the others add nothing).
 struct Hypotheses {
-    /// Every blend entry's prediction, and the vertex's normal turned by the entry's patch.
-    at: Vec<Point3>,
-    normal: Vec<Vector3>,
+    /// Every blend entry packed for the posterior loop, which reads them in random order.
+    packed: Vec<PackedHypothesis>,
     /// The blend entries kept, vertex by vertex, and their positions in single precision
     /// relative to `origin` (for choosing neighbours, not for the posteriors).
     entry: Vec<u32>,
@@ -371,24 +392,36 @@ struct Hypotheses {
     local: Vec<[f32; 3]>,
 }
 
+/// One blend entry `(l, v)` in one cache line's half: the prediction of `v` by patch `l`
+/// relative to the origin, `v`'s normal turned by `l` (single precision: they choose and
+/// screen candidates, the posteriors use the blended positions), `v` and `v`'s own patch.
+#[derive(Clone, Copy, Debug, Default)]
+struct PackedHypothesis {
+    at: [f32; 3],
+    vertex: u32,
+    normal: [f32; 3],
+    patch: u32,
+}
+
 impl Hypotheses {
-    fn new(model: &PatchModel, pose: &PatchPose, merge: f64) -> Self {
-        let (at, normal): (Vec<Point3>, Vec<Vector3>) = (0..model.blend_patch.len())
+    fn new(model: &PatchModel, predictions: &Predictions, merge: f64) -> Self {
+        let at = &predictions.at;
+        let origin = at.first().copied().unwrap_or_else(Point3::origin);
+        let packed: Vec<PackedHypothesis> = (0..at.len())
             .into_par_iter()
             .map(|e| {
-                let (l, v) = (
-                    model.blend_patch[e] as usize,
-                    model.blend_vertex[e] as usize,
-                );
-                (
-                    model.prediction(pose, l, v),
-                    pose.rotation[l] * model.rest_normals[v],
-                )
+                let v = model.blend_vertex[e] as usize;
+                let normal = predictions.normal[e];
+                PackedHypothesis {
+                    at: to_local(&at[e], &origin),
+                    vertex: v as u32,
+                    normal: [normal.x as f32, normal.y as f32, normal.z as f32],
+                    patch: model.vertex_patch[v],
+                }
             })
-            .unzip();
+            .collect();
         let merge2 = merge * merge;
         let mut entry = Vec::with_capacity(model.vertex_count() * 2);
-        let origin = at.first().copied().unwrap_or_else(Point3::origin);
         let mut local = Vec::with_capacity(model.vertex_count() * 2);
         for v in 0..model.vertex_count() {
             let (a, b) = (
@@ -398,19 +431,28 @@ impl Hypotheses {
             for e in a..b {
                 if e == a || (at[e] - at[a]).norm_squared() > merge2 {
                     entry.push(e as u32);
-                    local.push(to_local(&at[e], &origin));
+                    local.push(packed[e].at);
                 }
             }
         }
         Self {
-            at,
-            normal,
+            packed,
             entry,
             origin,
             local,
         }
     }
 }
+
+/// Squared distance in single precision.
+#[inline]
+fn distance2(a: &[f32; 3], b: &[f32; 3]) -> f32 {
+    let (dx, dy, dz) = (a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+    dx * dx + dy * dy + dz * dz
+}
+
+/// A point searched again: its rank, the length of its new list and the list's cover.
+type Searched = (u32, u8, f64);
 
 /// `p - origin` in single precision.
 #[inline]
@@ -433,6 +475,20 @@ pub fn e_step_cached(
     options: &DataTermOptions,
     cache: &mut EStepCache,
 ) -> VertexTargets {
+    let predictions = model.predictions(pose);
+    e_step_predicted(model, &predictions, positions, data, sigma, options, cache)
+}
+
+/// [`e_step_cached`] from the pose's [`Predictions`], already computed.
+pub fn e_step_predicted(
+    model: &PatchModel,
+    predictions: &Predictions,
+    positions: &[Point3],
+    data: &Observations,
+    sigma: f64,
+    options: &DataTermOptions,
+    cache: &mut EStepCache,
+) -> VertexTargets {
     let n_vertices = model.vertex_count();
     let n_points = data.points.len();
     let cutoff = options.cutoff_sigmas * sigma;
@@ -440,11 +496,11 @@ pub fn e_step_cached(
     let slots = options.max_candidates.clamp(1, MAX_SLOTS);
     // Predictions of one vertex closer than this to its own patch's add nothing to search.
     let merge = 0.3 * model.mean_edge;
-    let hypotheses = Hypotheses::new(model, pose, merge);
+    let hypotheses = Hypotheses::new(model, predictions, merge);
     let data_id = (data.points.as_ptr() as usize, n_points);
     let fresh = cache.data != data_id
         || cache.slots != slots
-        || cache.previous.len() != hypotheses.at.len()
+        || cache.previous.len() != predictions.at.len()
         || cache.drift.is_empty();
     if fresh {
         cache.data = data_id;
@@ -468,7 +524,7 @@ pub fn e_step_cached(
                     model.blend_start[v + 1] as usize,
                 );
                 (a..b)
-                    .map(|e| (hypotheses.at[e] - cache.previous[e]).norm_squared())
+                    .map(|e| (predictions.at[e] - cache.previous[e]).norm_squared())
                     .fold(0.0, f64::max)
                     .sqrt() as f32
             })
@@ -493,7 +549,7 @@ pub fn e_step_cached(
     }
     let now = (cache.drift.len() - 1) as u32;
     let drift_now = cache.drift[now as usize];
-    cache.previous.clone_from(&hypotheses.at);
+    cache.previous.clone_from(&predictions.at);
 
     // Keep or search each list again, by how far the hypotheses around its vertices moved
     // since it was searched; note the points (ranks) that need a search.
@@ -529,42 +585,64 @@ pub fn e_step_cached(
     if !needs_search.is_empty() {
         let tree = NearTree::new(&hypotheses.local, &hypotheses.entry);
         let (order, list, count) = (&cache.order, &cache.list, &cache.count);
-        let (origin, at) = (hypotheses.origin, &hypotheses.at);
-        let found: Vec<(u32, NearestFew)> = needs_search
-            .par_iter()
-            .map_init(
-                || NearestFew::new(slots),
-                |nearest, &r| {
+        let (origin, packed) = (hypotheses.origin, &hypotheses.packed);
+        // Per chunk of points searched: (rank, count, cover) of each, and their lists.
+        let found: Vec<(Vec<Searched>, Vec<u32>)> = needs_search
+            .par_chunks(256)
+            .map(|ranks| {
+                let mut nearest = NearestFew::new(slots);
+                let mut searched = Vec::with_capacity(ranks.len());
+                let mut ids = Vec::with_capacity(ranks.len() * slots);
+                // The last point searched and the farthest of its full list.
+                let mut last: Option<([f32; 3], f32)> = None;
+                for &r in ranks {
                     let y = data.points[order[r as usize] as usize];
+                    let q = to_local(&y, &origin);
                     // A full list bounds the search: each of its entries is within `merge`
                     // of a kept hypothesis, so as many lie within its farthest plus `merge`.
                     let listed = &list[r as usize * slots..][..count[r as usize] as usize];
-                    let mut reach2 = cut2;
+                    let mut reach = cutoff;
                     if listed.len() == slots {
-                        let farthest = listed
+                        let farthest2 = listed
                             .iter()
-                            .map(|&e| (y - at[e as usize]).norm_squared())
-                            .fold(0.0, f64::max);
-                        reach2 = reach2.min(((farthest.sqrt() + merge) * (1.0 + 1e-4)).powi(2));
+                            .map(|&e| distance2(&packed[e as usize].at, &q))
+                            .fold(0.0, f32::max);
+                        reach = reach.min((farthest2 as f64).sqrt() + merge);
                     }
-                    tree.nearest_within(to_local(&y, &origin), reach2 as f32, nearest);
-                    (r, nearest.clone())
-                },
-            )
+                    // So does the last point's full list (points come in spatial order, the
+                    // last one is near): all of it lies within its farthest plus the gap.
+                    if let Some((p, farthest2)) = last {
+                        let gap2: f32 = (0..3).map(|a| (p[a] - q[a]).powi(2)).sum();
+                        reach = reach.min((farthest2.sqrt() + gap2.sqrt()) as f64);
+                    }
+                    let reach2 = (reach * (1.0 + 1e-4)).powi(2);
+                    tree.nearest_within(q, reach2 as f32, &mut nearest);
+                    let near = nearest.as_slice();
+                    let full = near.len() == slots;
+                    let farthest2 = near.last().map_or(0.0, |x| x.0);
+                    last = full.then_some((q, farthest2));
+                    ids.extend(near.iter().map(|x| x.1));
+                    let cover = if full {
+                        (farthest2 as f64).sqrt()
+                    } else {
+                        cutoff
+                    };
+                    searched.push((r, near.len() as u8, cover));
+                }
+                (searched, ids)
+            })
             .collect();
-        for (r, near) in &found {
-            let r = *r as usize;
-            let near = near.as_slice();
-            for (slot, &(_, e)) in cache.list[r * slots..].iter_mut().zip(near) {
-                *slot = e;
+        for (searched, ids) in &found {
+            let mut ids = ids.as_slice();
+            for &(r, n, cover) in searched {
+                let r = r as usize;
+                let (mine, rest) = ids.split_at(n as usize);
+                cache.list[r * slots..][..n as usize].copy_from_slice(mine);
+                ids = rest;
+                cache.count[r] = n;
+                cache.cover[r] = cover;
+                cache.searched_at[r] = now;
             }
-            cache.count[r] = near.len() as u8;
-            cache.cover[r] = if near.len() == slots {
-                near.last().map_or(cutoff, |&(d2, _)| (d2 as f64).sqrt())
-            } else {
-                cutoff
-            };
-            cache.searched_at[r] = now;
         }
     }
     let cache = &*cache;
@@ -594,7 +672,8 @@ pub fn e_step_cached(
         .unwrap_or(1.0);
     let outlier_density = outlier_prior / volume;
     let gauss_norm = (2.0 * std::f64::consts::PI * sigma * sigma).powf(-1.5);
-    let cos_limit = options.normal_angle.to_radians().cos();
+    let cos_limit = options.normal_angle.to_radians().cos() as f32;
+    let cut2_single = cut2 as f32;
 
     // Per point: the best vertex of each patch found, its posterior.
     struct Chunk {
@@ -621,14 +700,17 @@ pub fn e_step_cached(
                 let count = data.count(i) as f64;
                 found.clear();
                 let list = &cache.list[r * slots..][..cache.count[r] as usize];
+                let y_local = to_local(y, &hypotheses.origin);
+                let ny_single = [ny.x as f32, ny.y as f32, ny.z as f32];
                 for &e in list {
-                    let e = e as usize;
-                    let d2_hypothesis = (y - hypotheses.at[e]).norm_squared();
-                    if d2_hypothesis > cut2 {
+                    let h = &hypotheses.packed[e as usize];
+                    let d2_hypothesis = distance2(&h.at, &y_local);
+                    if d2_hypothesis > cut2_single {
                         continue;
                     }
-                    let vertex = model.blend_vertex[e];
-                    let cos = ny.dot(&hypotheses.normal[e]);
+                    let cos = ny_single[0] * h.normal[0]
+                        + ny_single[1] * h.normal[1]
+                        + ny_single[2] * h.normal[2];
                     let compatible = if data.oriented {
                         cos >= cos_limit
                     } else {
@@ -637,8 +719,8 @@ pub fn e_step_cached(
                     if !compatible {
                         continue;
                     }
-                    let v = vertex as usize;
-                    let k = model.vertex_patch[v] as usize;
+                    let (k, v) = (h.patch as usize, h.vertex as usize);
+                    let d2_hypothesis = d2_hypothesis as f64;
                     // v_i^k: the hypothesis of patch k nearest to y_i.
                     match found.iter_mut().find(|f| f.0 == k) {
                         Some(f) if d2_hypothesis < f.2 => *f = (k, v, d2_hypothesis),
@@ -757,6 +839,24 @@ mod tests {
     }
 
     /// Merging keeps every point counted and the two sides of a thin part apart.
+    #[test]
+    fn thinning_keeps_one_point_in_stride_and_counts_the_rest() {
+        let data = Observations {
+            points: (0..10).map(|i| Point3::new(i as f64, 0.0, 0.0)).collect(),
+            normals: vec![Vector3::z(); 10],
+            oriented: true,
+            counts: vec![2; 10],
+        };
+        let thinned = data.thinned(4);
+        let xs: Vec<f64> = thinned.points.iter().map(|p| p.x).collect();
+        assert_eq!(xs, [0.0, 4.0, 8.0]);
+        // Each stands for its own and the skipped points' counts: 4 + 4 + 2 points of 2.
+        assert_eq!(thinned.counts, [8, 8, 4]);
+        assert_eq!(thinned.normals.len(), 3);
+        assert!(thinned.oriented);
+        assert_eq!(data.thinned(1).points.len(), 10);
+    }
+
     #[test]
     fn merging_counts_every_point_and_keeps_sides_apart() {
         let (mut points, mut normals) = (Vec::new(), Vec::new());

@@ -17,9 +17,9 @@ pub mod solve;
 
 pub use estep::{
     DataTermOptions, EStepCache, Observations, VertexTargets, e_step, e_step_cached,
-    estimate_normals,
+    e_step_predicted, estimate_normals,
 };
-pub use model::{PatchModel, PatchOptions, PatchPose};
+pub use model::{PatchModel, PatchOptions, PatchPose, Predictions};
 pub use solve::{PatchSystem, SolveError, StepWeights, gauss_newton_step};
 
 use crate::geometry::TriMesh;
@@ -88,6 +88,11 @@ pub struct SurfaceOptions {
     /// of a spacing, which on coarse meshes sampled sparsely costs more than the noise it
     /// averages (BENCHMARKS.md).
     pub merge_cell: f64,
+    /// A frame's first `coarse_iterations` use one point in `coarse_stride` (each standing for
+    /// the ones it skips): they take up most of the motion, at the widest kernels, where every
+    /// point's candidates must be searched again after each step. 1 uses every point.
+    pub coarse_stride: usize,
+    pub coarse_iterations: usize,
 }
 
 impl SurfaceOptions {
@@ -99,6 +104,7 @@ impl SurfaceOptions {
             anneal: 0.0,
             initial_sigma: 0.04,
             extrapolate: false,
+            coarse_stride: 1,
             ..Self::default()
         };
         options.patches.attach_small_parts = false;
@@ -124,6 +130,8 @@ impl Default for SurfaceOptions {
             extrapolate: true,
             anneal: 0.8,
             merge_cell: 0.0,
+            coarse_stride: 4,
+            coarse_iterations: 2,
         }
     }
 }
@@ -274,8 +282,9 @@ impl SurfaceTracker {
         let min_sigma = self.options.min_sigma * diagonal;
         let mut sigma = (self.options.initial_sigma * diagonal).max(min_sigma);
         let radius = self.options.patches.radius * diagonal;
-        let mut positions = self.model.positions(&self.pose);
-        let mut normals = self.model.normals(&self.pose);
+        let mut predictions = self.model.predictions(&self.pose);
+        let mut positions = self.model.blended_positions(&predictions);
+        let mut normals = self.model.blended_normals(&predictions);
         let mut targets = VertexTargets::default();
         let mut iterations = 0;
         let merged = (self.options.merge_cell > 0.0).then(|| {
@@ -285,11 +294,26 @@ impl SurfaceTracker {
             data.merged(self.options.merge_cell * spacing)
         });
         let data = merged.as_ref().unwrap_or(data);
+        let coarse_iterations = self
+            .options
+            .coarse_iterations
+            .min(self.options.max_iterations.saturating_sub(1));
+        // Thinned only while each patch keeps a few points on average.
+        let thinned = (self.options.coarse_stride > 1
+            && coarse_iterations > 0
+            && data.points.len() / self.options.coarse_stride >= 8 * self.model.patch_count())
+        .then(|| data.thinned(self.options.coarse_stride));
         for _ in 0..self.options.max_iterations {
             iterations += 1;
-            targets = e_step_cached(
+            let coarse = iterations <= coarse_iterations && thinned.is_some();
+            let data = if coarse {
+                thinned.as_ref().unwrap_or(data)
+            } else {
+                data
+            };
+            targets = e_step_predicted(
                 &self.model,
-                &self.pose,
+                &predictions,
                 &positions,
                 data,
                 sigma,
@@ -298,6 +322,9 @@ impl SurfaceTracker {
             );
             let total = targets.total_weight();
             if total <= 1e-9 {
+                if coarse {
+                    continue;
+                }
                 break;
             }
             // Eq. 15: data term (1 / sigma^2 per the Gaussian of eq. 7) plus rigidity.
@@ -316,7 +343,8 @@ impl SurfaceTracker {
                 &targets,
                 &weights,
             )?;
-            let moved_to = self.model.positions(&self.pose);
+            predictions = self.model.predictions(&self.pose);
+            let moved_to = self.model.blended_positions(&predictions);
             // The M-step for sigma: the weighted mean squared residual per coordinate, falling
             // no faster than the annealing allows.
             let sigma_em = (targets.residual(&moved_to) / (3.0 * total)).sqrt();
@@ -331,10 +359,10 @@ impl SurfaceTracker {
                 / positions.len().max(1) as f64)
                 .sqrt();
             positions = moved_to;
-            normals = self.model.normals(&self.pose);
+            normals = self.model.blended_normals(&predictions);
             // Done when the mesh stopped moving and sigma is no longer held up by the
             // annealing.
-            if moved < self.options.tolerance * diagonal && !annealing {
+            if moved < self.options.tolerance * diagonal && !annealing && !coarse {
                 break;
             }
         }

@@ -41,6 +41,14 @@ pub struct PatchPose {
     pub centre: Vec<Point3>,
 }
 
+/// Every blend entry `e = (l, v)` of a pose: `at[e] = x_l(v)` (eq. 1) and `normal[e]`, the
+/// reference normal of `v` turned by `R_l`.
+#[derive(Clone, Debug, Default)]
+pub struct Predictions {
+    pub at: Vec<Point3>,
+    pub normal: Vec<Vector3>,
+}
+
 /// The reference mesh cut into patches, with the blending weights of every vertex.
 #[derive(Clone, Debug)]
 pub struct PatchModel {
@@ -293,6 +301,57 @@ impl PatchModel {
         pose.centre[k] + self.offset(pose, k, v)
     }
 
+    /// Every blend entry's prediction and turned normal for `pose` (computed once per
+    /// iteration: the E-step's hypotheses, the blended positions and normals all use them).
+    pub fn predictions(&self, pose: &PatchPose) -> Predictions {
+        let (at, normal) = (0..self.blend_patch.len())
+            .into_par_iter()
+            .map(|e| {
+                let (l, v) = (self.blend_patch[e] as usize, self.blend_vertex[e] as usize);
+                (
+                    self.prediction(pose, l, v),
+                    pose.rotation[l] * self.rest_normals[v],
+                )
+            })
+            .unzip();
+        Predictions { at, normal }
+    }
+
+    /// The deformed mesh from its predictions (eq. 2); equal to [`Self::positions`].
+    pub fn blended_positions(&self, predictions: &Predictions) -> Vec<Point3> {
+        (0..self.vertex_count())
+            .into_par_iter()
+            .map(|v| {
+                let (a, b) = (
+                    self.blend_start[v] as usize,
+                    self.blend_start[v + 1] as usize,
+                );
+                Point3::from(
+                    (a..b)
+                        .map(|e| predictions.at[e].coords * self.blend_weight[e])
+                        .sum::<Vector3>(),
+                )
+            })
+            .collect()
+    }
+
+    /// The deformed mesh's normals from its predictions; equal to [`Self::normals`].
+    pub fn blended_normals(&self, predictions: &Predictions) -> Vec<Vector3> {
+        (0..self.vertex_count())
+            .into_par_iter()
+            .map(|v| {
+                let (a, b) = (
+                    self.blend_start[v] as usize,
+                    self.blend_start[v + 1] as usize,
+                );
+                let n = (a..b)
+                    .map(|e| predictions.normal[e] * self.blend_weight[e])
+                    .sum::<Vector3>();
+                n.try_normalize(1e-12).unwrap_or(self.rest_normals[v])
+            })
+            .collect()
+    }
+
     /// The deformed mesh: `x(v) = sum_k alpha_k(v) x_k(v)` (eq. 2).
     pub fn positions(&self, pose: &PatchPose) -> Vec<Point3> {
         (0..self.vertex_count())
@@ -469,6 +528,23 @@ mod tests {
         // Turning one patch alone is penalised.
         pose.rotation[0] = Matrix3::identity();
         assert!(model.rigidity_energy(&pose) > 1e-6);
+        // The blends of the predictions give the same mesh and normals.
+        let predictions = model.predictions(&pose);
+        assert_eq!(predictions.at.len(), model.blend_patch.len());
+        for (a, b) in model
+            .blended_positions(&predictions)
+            .iter()
+            .zip(&model.positions(&pose))
+        {
+            assert!((a - b).norm() < 1e-12);
+        }
+        for (a, b) in model
+            .blended_normals(&predictions)
+            .iter()
+            .zip(&model.normals(&pose))
+        {
+            assert!((a - b).norm() < 1e-12);
+        }
     }
 
     #[test]

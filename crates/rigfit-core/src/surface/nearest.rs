@@ -2,14 +2,12 @@
 //! over single-precision points, rebuilt whenever the points move (a build costs about as
 //! much as a few hundred queries), and a sorted, fixed-capacity list of the nearest found.
 //!
-//! A general-purpose tree (kiddo) spent about 8,000 instructions on one 12-nearest query
-//! here; this one, specialised to that query, about a fifth of that (BENCHMARKS.md).
+//! A general-purpose tree (kiddo) spent about 7,500 instructions on one 12-nearest query
+//! here; this one, specialised to that query (leaves stored by coordinate, bounded by the
+//! caller's radius), about 2,700 on the same tracking run (BENCHMARKS.md).
 
 /// Most neighbours a query keeps.
 pub const MAX_NEAREST: usize = 64;
-
-/// Points per leaf at most.
-const LEAF: usize = 16;
 
 /// The nearest few of a stream of candidates, `(squared distance, id)`, nearest first. Kept
 /// sorted by insertion: most candidates are farther than the last kept one and cost one
@@ -68,23 +66,37 @@ impl NearestFew {
     }
 }
 
-/// A node: a leaf holds `points[start..end]`; an inner node splits at `split` along `axis`,
+/// Points per leaf. Leaves are full (but the last), padded with points at infinity, so that
+/// a leaf's distances are one fixed-length loop the compiler vectorises.
+const LEAF: usize = 16;
+
+/// A node: a leaf holds leaf block `start`; an inner node splits at `split` along `axis`,
 /// its first child follows it, its second is at `second`.
 #[derive(Clone, Copy, Debug)]
 struct Node {
     start: u32,
-    end: u32,
     split: f32,
     /// 0-2, or 3 for a leaf.
     axis: u32,
     second: u32,
 }
 
+const LEAF_AXIS: u32 = 3;
+
+/// One leaf's points by coordinate, with their ids.
+#[derive(Clone, Copy, Debug)]
+struct LeafBlock {
+    x: [f32; LEAF],
+    y: [f32; LEAF],
+    z: [f32; LEAF],
+    id: [u32; LEAF],
+}
+
 /// A kd-tree over points given with ids; queries return ids.
 #[derive(Clone, Debug, Default)]
 pub struct NearTree {
-    points: Vec<[f32; 3]>,
-    ids: Vec<u32>,
+    len: usize,
+    leaves: Vec<LeafBlock>,
     nodes: Vec<Node>,
 }
 
@@ -95,22 +107,23 @@ impl NearTree {
         let mut items: Vec<([f32; 3], u32)> =
             points.iter().copied().zip(ids.iter().copied()).collect();
         let mut nodes = Vec::with_capacity(2 * points.len() / LEAF + 1);
+        let mut leaves = Vec::with_capacity(points.len().div_ceil(LEAF));
         if !items.is_empty() {
-            build(&mut items, 0, &mut nodes);
+            build(&mut items, &mut nodes, &mut leaves);
         }
         Self {
-            points: items.iter().map(|x| x.0).collect(),
-            ids: items.iter().map(|x| x.1).collect(),
+            len: points.len(),
+            leaves,
             nodes,
         }
     }
 
     pub fn len(&self) -> usize {
-        self.points.len()
+        self.len
     }
 
     pub fn is_empty(&self) -> bool {
-        self.points.is_empty()
+        self.len == 0
     }
 
     /// Fills `nearest` with the points nearest to `q` within squared distance `r2` (as many
@@ -120,61 +133,91 @@ impl NearTree {
         if self.nodes.is_empty() {
             return;
         }
-        // Pending far children with a lower bound on their squared distance.
-        let mut stack = [(0u32, 0f32); 64];
+        // Finite, so that the padding (at infinity) is never within it.
+        let r2 = r2.min(f32::MAX);
+        // Pending far children, with the squared distance from `q` to their cell and that
+        // distance's components along each axis (Arya and Mount's incremental distance).
+        let mut stack = [(0u32, 0f32, [0f32; 3]); 64];
         let mut depth = 1;
         while depth > 0 {
             depth -= 1;
-            let (mut n, floor) = stack[depth];
+            let (mut n, floor, offset) = stack[depth];
             if floor > nearest.bound(r2) {
                 continue;
             }
             loop {
                 let node = self.nodes[n as usize];
-                if node.axis == 3 {
-                    for i in node.start as usize..node.end as usize {
-                        let p = self.points[i];
-                        let (dx, dy, dz) = (p[0] - q[0], p[1] - q[1], p[2] - q[2]);
-                        let d2 = dx * dx + dy * dy + dz * dz;
-                        if d2 <= nearest.bound(r2) {
-                            nearest.offer(d2, self.ids[i]);
-                        }
-                    }
+                if node.axis == LEAF_AXIS {
+                    self.scan_leaf(&self.leaves[node.start as usize], q, r2, nearest);
                     break;
                 }
-                let diff = q[node.axis as usize] - node.split;
+                let axis = node.axis as usize;
+                let diff = q[axis] - node.split;
                 let (near, far) = if diff < 0.0 {
                     (n + 1, node.second)
                 } else {
                     (node.second, n + 1)
                 };
-                let gap = diff * diff;
-                if gap <= nearest.bound(r2) && depth < stack.len() {
-                    stack[depth] = (far, gap);
+                let far_floor = floor - offset[axis] * offset[axis] + diff * diff;
+                if far_floor <= nearest.bound(r2) && depth < stack.len() {
+                    let mut far_offset = offset;
+                    far_offset[axis] = diff;
+                    stack[depth] = (far, far_floor, far_offset);
                     depth += 1;
                 }
+                // The near child's cell is on the query's side: same floor.
                 n = near;
+            }
+        }
+    }
+
+    /// Offers a leaf's points within the current bound.
+    #[inline]
+    fn scan_leaf(&self, leaf: &LeafBlock, q: [f32; 3], r2: f32, nearest: &mut NearestFew) {
+        let mut d2 = [0f32; LEAF];
+        for i in 0..LEAF {
+            let (dx, dy, dz) = (leaf.x[i] - q[0], leaf.y[i] - q[1], leaf.z[i] - q[2]);
+            d2[i] = dx * dx + dy * dy + dz * dz;
+        }
+        let bound = nearest.bound(r2);
+        let mut below = 0u32;
+        for (i, &d) in d2.iter().enumerate() {
+            below |= ((d <= bound) as u32) << i;
+        }
+        while below != 0 {
+            let i = below.trailing_zeros() as usize;
+            below &= below - 1;
+            if d2[i] <= nearest.bound(r2) {
+                nearest.offer(d2[i], leaf.id[i]);
             }
         }
     }
 }
 
-/// Builds the subtree of `items` (reordered in place), which start at `offset` in the final
-/// order, pushing its nodes depth first.
-fn build(items: &mut [([f32; 3], u32)], offset: usize, nodes: &mut Vec<Node>) {
+/// Builds the subtree of `items` (reordered in place), pushing its nodes depth first and its
+/// leaves in order. Splits at a multiple of [`LEAF`] so that every leaf but the last is full.
+fn build(items: &mut [([f32; 3], u32)], nodes: &mut Vec<Node>, leaves: &mut Vec<LeafBlock>) {
     let here = nodes.len();
-    let end = offset + items.len();
     if items.len() <= LEAF {
+        let mut leaf = LeafBlock {
+            x: [f32::INFINITY; LEAF],
+            y: [f32::INFINITY; LEAF],
+            z: [f32::INFINITY; LEAF],
+            id: [u32::MAX; LEAF],
+        };
+        for (i, (p, id)) in items.iter().enumerate() {
+            (leaf.x[i], leaf.y[i], leaf.z[i], leaf.id[i]) = (p[0], p[1], p[2], *id);
+        }
         nodes.push(Node {
-            start: offset as u32,
-            end: end as u32,
+            start: leaves.len() as u32,
             split: 0.0,
-            axis: 3,
+            axis: LEAF_AXIS,
             second: 0,
         });
+        leaves.push(leaf);
         return;
     }
-    // Split the widest extent at the median.
+    // Split the widest extent near the median, at a whole number of leaves.
     let mut low = [f32::INFINITY; 3];
     let mut high = [f32::NEG_INFINITY; 3];
     for (p, _) in items.iter() {
@@ -186,20 +229,19 @@ fn build(items: &mut [([f32; 3], u32)], offset: usize, nodes: &mut Vec<Node>) {
     let axis = (0..3)
         .max_by(|&a, &b| (high[a] - low[a]).total_cmp(&(high[b] - low[b])))
         .unwrap_or(0);
-    let mid = items.len() / 2;
+    let mid = (items.len().div_ceil(LEAF) / 2) * LEAF;
     items.select_nth_unstable_by(mid, |x, y| x.0[axis].total_cmp(&y.0[axis]));
     let split = items[mid].0[axis];
     nodes.push(Node {
-        start: offset as u32,
-        end: end as u32,
+        start: 0,
         split,
         axis: axis as u32,
         second: 0,
     });
     let (left, right) = items.split_at_mut(mid);
-    build(left, offset, nodes);
+    build(left, nodes, leaves);
     nodes[here].second = nodes.len() as u32;
-    build(right, offset + mid, nodes);
+    build(right, nodes, leaves);
 }
 
 #[cfg(test)]
@@ -228,7 +270,13 @@ mod tests {
             let ids: Vec<u32> = (0..points.len() as u32).map(|i| 3 * i + 1).collect();
             let tree = NearTree::new(&points, &ids);
             assert_eq!(tree.len(), points.len());
-            for (k, r) in [(12usize, 0.15f32), (1, 1.0), (64, 0.3), (12, 0.01)] {
+            for (k, r) in [
+                (12usize, 0.15f32),
+                (1, 1.0),
+                (64, 0.3),
+                (12, 0.01),
+                (5, f32::INFINITY),
+            ] {
                 let mut found = NearestFew::new(k);
                 for _ in 0..50 {
                     let q = [
