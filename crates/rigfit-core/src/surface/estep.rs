@@ -424,12 +424,10 @@ impl Hypotheses {
         let mut entry = Vec::with_capacity(model.vertex_count() * 2);
         let mut local = Vec::with_capacity(model.vertex_count() * 2);
         for v in 0..model.vertex_count() {
-            let (a, b) = (
-                model.blend_start[v] as usize,
-                model.blend_start[v + 1] as usize,
-            );
-            for e in a..b {
-                if e == a || (at[e] - at[a]).norm_squared() > merge2 {
+            let entries = model.blend_entries(v);
+            let first = entries.start;
+            for e in entries {
+                if e == first || (at[e] - at[first]).norm_squared() > merge2 {
                     entry.push(e as u32);
                     local.push(packed[e].at);
                 }
@@ -519,11 +517,8 @@ pub fn e_step_predicted(
         let moved: Vec<f32> = (0..n_vertices)
             .into_par_iter()
             .map(|v| {
-                let (a, b) = (
-                    model.blend_start[v] as usize,
-                    model.blend_start[v + 1] as usize,
-                );
-                (a..b)
+                model
+                    .blend_entries(v)
                     .map(|e| (predictions.at[e] - cache.previous[e]).norm_squared())
                     .fold(0.0, f64::max)
                     .sqrt() as f32
@@ -534,10 +529,9 @@ pub fn e_step_predicted(
         let summed: Vec<f32> = (0..n_vertices)
             .into_par_iter()
             .map(|v| {
-                let (a, b) = (graph.start[v] as usize, graph.start[v + 1] as usize);
-                let near = graph.adjacent[a..b]
-                    .iter()
-                    .map(|&w| moved[w as usize])
+                let near = graph
+                    .neighbours(v)
+                    .map(|(w, _)| moved[w])
                     .fold(moved[v], f32::max);
                 last[v] + near
             })
@@ -612,8 +606,8 @@ pub fn e_step_predicted(
                     // So does the last point's full list (points come in spatial order, the
                     // last one is near): all of it lies within its farthest plus the gap.
                     if let Some((p, farthest2)) = last {
-                        let gap2: f32 = (0..3).map(|a| (p[a] - q[a]).powi(2)).sum();
-                        reach = reach.min((farthest2.sqrt() + gap2.sqrt()) as f64);
+                        let gap = distance2(&p, &q).sqrt();
+                        reach = reach.min((farthest2.sqrt() + gap) as f64);
                     }
                     let reach2 = (reach * (1.0 + 1e-4)).powi(2);
                     tree.nearest_within(q, reach2 as f32, &mut nearest);
@@ -838,7 +832,6 @@ mod tests {
         }
     }
 
-    /// Merging keeps every point counted and the two sides of a thin part apart.
     #[test]
     fn thinning_keeps_one_point_in_stride_and_counts_the_rest() {
         let data = Observations {
@@ -857,6 +850,7 @@ mod tests {
         assert_eq!(data.thinned(1).points.len(), 10);
     }
 
+    /// Merging keeps every point counted and the two sides of a thin part apart.
     #[test]
     fn merging_counts_every_point_and_keeps_sides_apart() {
         let (mut points, mut normals) = (Vec::new(), Vec::new());

@@ -268,15 +268,19 @@ impl PatchModel {
         self.rest.len()
     }
 
+    /// The blend entries of vertex `v`: indices into `blend_patch`, `blend_weight` and
+    /// `blend_vertex`.
+    #[inline]
+    pub fn blend_entries(&self, v: usize) -> std::ops::Range<usize> {
+        self.blend_start[v] as usize..self.blend_start[v + 1] as usize
+    }
+
     /// The patches blended at `v` and their weights `alpha_k(v)`.
     pub fn blend(&self, v: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
-        let (a, b) = (
-            self.blend_start[v] as usize,
-            self.blend_start[v + 1] as usize,
-        );
-        self.blend_patch[a..b]
+        let entries = self.blend_entries(v);
+        self.blend_patch[entries.clone()]
             .iter()
-            .zip(&self.blend_weight[a..b])
+            .zip(&self.blend_weight[entries])
             .map(|(&k, &w)| (k as usize, w))
     }
 
@@ -317,17 +321,13 @@ impl PatchModel {
         Predictions { at, normal }
     }
 
-    /// The deformed mesh from its predictions (eq. 2); equal to [`Self::positions`].
+    /// The deformed mesh from its predictions: `x(v) = sum_k alpha_k(v) x_k(v)` (eq. 2).
     pub fn blended_positions(&self, predictions: &Predictions) -> Vec<Point3> {
         (0..self.vertex_count())
             .into_par_iter()
             .map(|v| {
-                let (a, b) = (
-                    self.blend_start[v] as usize,
-                    self.blend_start[v + 1] as usize,
-                );
                 Point3::from(
-                    (a..b)
+                    self.blend_entries(v)
                         .map(|e| predictions.at[e].coords * self.blend_weight[e])
                         .sum::<Vector3>(),
                 )
@@ -335,16 +335,14 @@ impl PatchModel {
             .collect()
     }
 
-    /// The deformed mesh's normals from its predictions; equal to [`Self::normals`].
+    /// The deformed mesh's normals from its predictions: the reference normals turned by the
+    /// blended rotations.
     pub fn blended_normals(&self, predictions: &Predictions) -> Vec<Vector3> {
         (0..self.vertex_count())
             .into_par_iter()
             .map(|v| {
-                let (a, b) = (
-                    self.blend_start[v] as usize,
-                    self.blend_start[v + 1] as usize,
-                );
-                let n = (a..b)
+                let n = self
+                    .blend_entries(v)
                     .map(|e| predictions.normal[e] * self.blend_weight[e])
                     .sum::<Vector3>();
                 n.try_normalize(1e-12).unwrap_or(self.rest_normals[v])
@@ -352,32 +350,14 @@ impl PatchModel {
             .collect()
     }
 
-    /// The deformed mesh: `x(v) = sum_k alpha_k(v) x_k(v)` (eq. 2).
+    /// The deformed mesh of `pose` (eq. 2).
     pub fn positions(&self, pose: &PatchPose) -> Vec<Point3> {
-        (0..self.vertex_count())
-            .into_par_iter()
-            .map(|v| {
-                Point3::from(
-                    self.blend(v)
-                        .map(|(k, a)| self.prediction(pose, k, v).coords * a)
-                        .sum::<Vector3>(),
-                )
-            })
-            .collect()
+        self.blended_positions(&self.predictions(pose))
     }
 
-    /// Normals of the deformed mesh: the reference normals turned by the blended rotations.
+    /// Normals of the deformed mesh of `pose`.
     pub fn normals(&self, pose: &PatchPose) -> Vec<Vector3> {
-        (0..self.vertex_count())
-            .into_par_iter()
-            .map(|v| {
-                let n = self
-                    .blend(v)
-                    .map(|(k, a)| pose.rotation[k] * self.rest_normals[v] * a)
-                    .sum::<Vector3>();
-                n.try_normalize(1e-12).unwrap_or(self.rest_normals[v])
-            })
-            .collect()
+        self.blended_normals(&self.predictions(pose))
     }
 
     /// Pairs of neighbouring patches `(k, l)`, `k < l`.
@@ -528,22 +508,17 @@ mod tests {
         // Turning one patch alone is penalised.
         pose.rotation[0] = Matrix3::identity();
         assert!(model.rigidity_energy(&pose) > 1e-6);
-        // The blends of the predictions give the same mesh and normals.
+        // Each prediction of a rigid motion is the moved vertex, its normal the turned one.
+        pose.rotation[0] = q.to_rotation_matrix().into_inner();
         let predictions = model.predictions(&pose);
         assert_eq!(predictions.at.len(), model.blend_patch.len());
-        for (a, b) in model
-            .blended_positions(&predictions)
-            .iter()
-            .zip(&model.positions(&pose))
-        {
-            assert!((a - b).norm() < 1e-12);
+        for (e, &v) in model.blend_vertex.iter().enumerate() {
+            let v = v as usize;
+            assert!((predictions.at[e] - (q * model.rest[v] + t)).norm() < 1e-12);
+            assert!((predictions.normal[e] - q * model.rest_normals[v]).norm() < 1e-12);
         }
-        for (a, b) in model
-            .blended_normals(&predictions)
-            .iter()
-            .zip(&model.normals(&pose))
-        {
-            assert!((a - b).norm() < 1e-12);
+        for (n, n0) in model.normals(&pose).iter().zip(&model.rest_normals) {
+            assert!((n - q * n0).norm() < 1e-12);
         }
     }
 

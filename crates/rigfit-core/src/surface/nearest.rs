@@ -187,9 +187,8 @@ impl NearTree {
         while below != 0 {
             let i = below.trailing_zeros() as usize;
             below &= below - 1;
-            if d2[i] <= nearest.bound(r2) {
-                nearest.offer(d2[i], leaf.id[i]);
-            }
+            // Once the list fills, `offer` itself turns away what is no longer near enough.
+            nearest.offer(d2[i], leaf.id[i]);
         }
     }
 }
