@@ -305,7 +305,7 @@ pub struct EStepCache {
     slots: usize,
     /// The points in visiting order; the per-point arrays below are in that order.
     order: Vec<u32>,
-    /// `list[r * slots..][..count[r]]`: the candidates of point `order[r]`, nearest first.
+    /// `list[r * slots..][..count[r]]`: the candidates of point `order[r]`, in no particular order.
     list: Vec<u32>,
     count: Vec<u8>,
     /// The radius within which the list was complete when it was searched, and the E-step
@@ -611,17 +611,16 @@ pub fn e_step_predicted(
                     }
                     let reach2 = (reach * (1.0 + 1e-4)).powi(2);
                     tree.nearest_within(q, reach2 as f32, &mut nearest);
-                    let near = nearest.as_slice();
-                    let full = near.len() == slots;
-                    let farthest2 = near.last().map_or(0.0, |x| x.0);
+                    let full = nearest.is_full();
+                    let farthest2 = nearest.farthest_distance2();
                     last = full.then_some((q, farthest2));
-                    ids.extend(near.iter().map(|x| x.1));
+                    ids.extend_from_slice(nearest.ids());
                     let cover = if full {
                         (farthest2 as f64).sqrt()
                     } else {
                         cutoff
                     };
-                    searched.push((r, near.len() as u8, cover));
+                    searched.push((r, nearest.len() as u8, cover));
                 }
                 (searched, ids)
             })

@@ -9,14 +9,29 @@
 /// Most neighbours a query keeps.
 pub const MAX_NEAREST: usize = 64;
 
-/// The nearest few of a stream of candidates, `(squared distance, id)`, nearest first. Kept
-/// sorted by insertion: most candidates are farther than the last kept one and cost one
-/// comparison.
+/// The nearest few of a stream of candidates, in no particular order: until it is full a
+/// candidate is appended; then one nearer than the farthest kept replaces it, and the
+/// farthest is found again. A list kept sorted by insertion spent most of a search shifting
+/// entries on branches the processor could not predict. It also holds a search's pending
+/// cells, so that a query allocates nothing.
 #[derive(Clone, Debug)]
 pub struct NearestFew {
     capacity: usize,
     len: usize,
-    items: [(f32, u32); MAX_NEAREST],
+    distance2: [f32; MAX_NEAREST],
+    id: [u32; MAX_NEAREST],
+    /// The farthest kept, and where, once the list is full.
+    farthest: (f32, usize),
+    pending: Vec<Pending>,
+}
+
+/// A far child left for later: its node, the squared distance from the query to its cell and
+/// that distance's components along each axis (Arya and Mount's incremental distance).
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    node: u32,
+    floor: f32,
+    offset: [f32; 3],
 }
 
 impl NearestFew {
@@ -25,7 +40,10 @@ impl NearestFew {
         Self {
             capacity: capacity.clamp(1, MAX_NEAREST),
             len: 0,
-            items: [(0.0, 0); MAX_NEAREST],
+            distance2: [0.0; MAX_NEAREST],
+            id: [0; MAX_NEAREST],
+            farthest: (0.0, 0),
+            pending: Vec::with_capacity(64),
         }
     }
 
@@ -33,11 +51,23 @@ impl NearestFew {
         self.len = 0;
     }
 
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    pub fn is_full(&self) -> bool {
+        self.len == self.capacity
+    }
+
     /// The squared distance a candidate must be below to be kept, given the radius `r2`.
     #[inline]
     fn bound(&self, r2: f32) -> f32 {
         if self.len == self.capacity {
-            self.items[self.len - 1].0
+            self.farthest.0
         } else {
             r2
         }
@@ -46,23 +76,48 @@ impl NearestFew {
     /// Keeps `id` if it is among the nearest so far.
     #[inline]
     pub fn offer(&mut self, d2: f32, id: u32) {
-        if self.len == self.capacity {
-            if d2 >= self.items[self.len - 1].0 {
-                return;
+        if self.len < self.capacity {
+            self.distance2[self.len] = d2;
+            self.id[self.len] = id;
+            self.len += 1;
+            if self.len == self.capacity {
+                self.find_farthest();
             }
-            self.len -= 1;
+        } else if d2 < self.farthest.0 {
+            let at = self.farthest.1;
+            self.distance2[at] = d2;
+            self.id[at] = id;
+            self.find_farthest();
         }
-        let mut i = self.len;
-        while i > 0 && self.items[i - 1].0 > d2 {
-            self.items[i] = self.items[i - 1];
-            i -= 1;
-        }
-        self.items[i] = (d2, id);
-        self.len += 1;
     }
 
-    pub fn as_slice(&self) -> &[(f32, u32)] {
-        &self.items[..self.len]
+    #[inline]
+    fn find_farthest(&mut self) {
+        let mut farthest = (self.distance2[0], 0);
+        for (i, &d) in self.distance2[..self.len].iter().enumerate().skip(1) {
+            if d > farthest.0 {
+                farthest = (d, i);
+            }
+        }
+        self.farthest = farthest;
+    }
+
+    /// The largest squared distance kept (0 when empty).
+    pub fn farthest_distance2(&self) -> f32 {
+        self.distance2[..self.len]
+            .iter()
+            .copied()
+            .fold(0.0, f32::max)
+    }
+
+    /// The ids kept, in no particular order.
+    pub fn ids(&self) -> &[u32] {
+        &self.id[..self.len]
+    }
+
+    /// The squared distances kept, in the order of [`NearestFew::ids`].
+    pub fn distances2(&self) -> &[f32] {
+        &self.distance2[..self.len]
     }
 }
 
@@ -92,11 +147,34 @@ struct LeafBlock {
     id: [u32; LEAF],
 }
 
+/// The bounding box of a leaf's points. A leaf's cell is often much larger than its points:
+/// the box turns away about a third of the leaves a search reaches. Boxes are kept apart
+/// from the points, several to a cache line, so that a leaf turned away costs no load of it.
+#[derive(Clone, Copy, Debug)]
+struct LeafBox {
+    low: [f32; 3],
+    high: [f32; 3],
+}
+
+impl LeafBox {
+    /// Squared distance from `q` to the box of the leaf's points.
+    #[inline]
+    fn box_distance2(&self, q: [f32; 3]) -> f32 {
+        let mut d2 = 0.0;
+        for a in 0..3 {
+            let outside = (self.low[a] - q[a]).max(q[a] - self.high[a]).max(0.0);
+            d2 += outside * outside;
+        }
+        d2
+    }
+}
+
 /// A kd-tree over points given with ids; queries return ids.
 #[derive(Clone, Debug, Default)]
 pub struct NearTree {
     len: usize,
     leaves: Vec<LeafBlock>,
+    boxes: Vec<LeafBox>,
     nodes: Vec<Node>,
 }
 
@@ -108,12 +186,27 @@ impl NearTree {
             points.iter().copied().zip(ids.iter().copied()).collect();
         let mut nodes = Vec::with_capacity(2 * points.len() / LEAF + 1);
         let mut leaves = Vec::with_capacity(points.len().div_ceil(LEAF));
+        let mut boxes = Vec::with_capacity(points.len().div_ceil(LEAF));
         if !items.is_empty() {
-            build(&mut items, &mut nodes, &mut leaves);
+            let mut low = [f32::INFINITY; 3];
+            let mut high = [f32::NEG_INFINITY; 3];
+            for (p, _) in &items {
+                for a in 0..3 {
+                    low[a] = low[a].min(p[a]);
+                    high[a] = high[a].max(p[a]);
+                }
+            }
+            build(
+                &mut items,
+                (low, high),
+                &mut nodes,
+                &mut (&mut leaves, &mut boxes),
+            );
         }
         Self {
             len: points.len(),
             leaves,
+            boxes,
             nodes,
         }
     }
@@ -127,7 +220,7 @@ impl NearTree {
     }
 
     /// Fills `nearest` with the points nearest to `q` within squared distance `r2` (as many
-    /// as its capacity), nearest first.
+    /// as its capacity), in no particular order.
     pub fn nearest_within(&self, q: [f32; 3], r2: f32, nearest: &mut NearestFew) {
         nearest.clear();
         if self.nodes.is_empty() {
@@ -135,20 +228,29 @@ impl NearTree {
         }
         // Finite, so that the padding (at infinity) is never within it.
         let r2 = r2.min(f32::MAX);
-        // Pending far children, with the squared distance from `q` to their cell and that
-        // distance's components along each axis (Arya and Mount's incremental distance).
-        let mut stack = [(0u32, 0f32, [0f32; 3]); 64];
-        let mut depth = 1;
-        while depth > 0 {
-            depth -= 1;
-            let (mut n, floor, offset) = stack[depth];
+        let mut pending = std::mem::take(&mut nearest.pending);
+        pending.clear();
+        pending.push(Pending {
+            node: 0,
+            floor: 0.0,
+            offset: [0.0; 3],
+        });
+        while let Some(Pending {
+            node: mut n,
+            floor,
+            offset,
+        }) = pending.pop()
+        {
             if floor > nearest.bound(r2) {
                 continue;
             }
             loop {
                 let node = self.nodes[n as usize];
                 if node.axis == LEAF_AXIS {
-                    self.scan_leaf(&self.leaves[node.start as usize], q, r2, nearest);
+                    let leaf = node.start as usize;
+                    if self.boxes[leaf].box_distance2(q) <= nearest.bound(r2) {
+                        scan_leaf(&self.leaves[leaf], q, r2, nearest);
+                    }
                     break;
                 }
                 let axis = node.axis as usize;
@@ -159,43 +261,61 @@ impl NearTree {
                     (node.second, n + 1)
                 };
                 let far_floor = floor - offset[axis] * offset[axis] + diff * diff;
-                if far_floor <= nearest.bound(r2) && depth < stack.len() {
+                if far_floor <= nearest.bound(r2) {
                     let mut far_offset = offset;
                     far_offset[axis] = diff;
-                    stack[depth] = (far, far_floor, far_offset);
-                    depth += 1;
+                    pending.push(Pending {
+                        node: far,
+                        floor: far_floor,
+                        offset: far_offset,
+                    });
                 }
                 // The near child's cell is on the query's side: same floor.
                 n = near;
             }
         }
-    }
-
-    /// Offers a leaf's points within the current bound.
-    #[inline]
-    fn scan_leaf(&self, leaf: &LeafBlock, q: [f32; 3], r2: f32, nearest: &mut NearestFew) {
-        let mut d2 = [0f32; LEAF];
-        for i in 0..LEAF {
-            let (dx, dy, dz) = (leaf.x[i] - q[0], leaf.y[i] - q[1], leaf.z[i] - q[2]);
-            d2[i] = dx * dx + dy * dy + dz * dz;
-        }
-        let bound = nearest.bound(r2);
-        let mut below = 0u32;
-        for (i, &d) in d2.iter().enumerate() {
-            below |= ((d <= bound) as u32) << i;
-        }
-        while below != 0 {
-            let i = below.trailing_zeros() as usize;
-            below &= below - 1;
-            // Once the list fills, `offer` itself turns away what is no longer near enough.
-            nearest.offer(d2[i], leaf.id[i]);
-        }
+        nearest.pending = pending;
     }
 }
 
-/// Builds the subtree of `items` (reordered in place), pushing its nodes depth first and its
-/// leaves in order. Splits at a multiple of [`LEAF`] so that every leaf but the last is full.
-fn build(items: &mut [([f32; 3], u32)], nodes: &mut Vec<Node>, leaves: &mut Vec<LeafBlock>) {
+/// Offers a leaf's points within the current bound.
+#[inline]
+fn scan_leaf(leaf: &LeafBlock, q: [f32; 3], r2: f32, nearest: &mut NearestFew) {
+    let mut d2 = [0f32; LEAF];
+    let mut below = leaf_distances(leaf, q, nearest.bound(r2), &mut d2);
+    while below != 0 {
+        let i = below.trailing_zeros() as usize;
+        below &= below - 1;
+        // Once the list fills, `offer` itself turns away what is no longer near enough.
+        nearest.offer(d2[i], leaf.id[i]);
+    }
+}
+
+/// The squared distances from `q` to a leaf's points, and the bit mask of those within
+/// `bound`. Not inlined: on its own it compiles to whole vector operations (four lanes at a
+/// time), inlined into the search it was split into odd pieces.
+#[inline(never)]
+fn leaf_distances(leaf: &LeafBlock, q: [f32; 3], bound: f32, d2: &mut [f32; LEAF]) -> u32 {
+    for (i, d) in d2.iter_mut().enumerate() {
+        let (dx, dy, dz) = (leaf.x[i] - q[0], leaf.y[i] - q[1], leaf.z[i] - q[2]);
+        *d = dx * dx + dy * dy + dz * dz;
+    }
+    let mut below = 0u32;
+    for (i, &d) in d2.iter().enumerate() {
+        below |= ((d <= bound) as u32) << i;
+    }
+    below
+}
+
+/// Builds the subtree of `items` (reordered in place) in `cell`, pushing its nodes depth
+/// first and its leaves in order: splits the cell's widest side near the median, at a
+/// multiple of [`LEAF`] so that every leaf but the last is full.
+fn build(
+    items: &mut [([f32; 3], u32)],
+    cell: ([f32; 3], [f32; 3]),
+    nodes: &mut Vec<Node>,
+    leaves: &mut (&mut Vec<LeafBlock>, &mut Vec<LeafBox>),
+) {
     let here = nodes.len();
     if items.len() <= LEAF {
         let mut leaf = LeafBlock {
@@ -204,27 +324,28 @@ fn build(items: &mut [([f32; 3], u32)], nodes: &mut Vec<Node>, leaves: &mut Vec<
             z: [f32::INFINITY; LEAF],
             id: [u32::MAX; LEAF],
         };
+        let mut bounds = LeafBox {
+            low: [f32::INFINITY; 3],
+            high: [f32::NEG_INFINITY; 3],
+        };
         for (i, (p, id)) in items.iter().enumerate() {
             (leaf.x[i], leaf.y[i], leaf.z[i], leaf.id[i]) = (p[0], p[1], p[2], *id);
+            for a in 0..3 {
+                bounds.low[a] = bounds.low[a].min(p[a]);
+                bounds.high[a] = bounds.high[a].max(p[a]);
+            }
         }
         nodes.push(Node {
-            start: leaves.len() as u32,
+            start: leaves.0.len() as u32,
             split: 0.0,
             axis: LEAF_AXIS,
             second: 0,
         });
-        leaves.push(leaf);
+        leaves.0.push(leaf);
+        leaves.1.push(bounds);
         return;
     }
-    // Split the widest extent near the median, at a whole number of leaves.
-    let mut low = [f32::INFINITY; 3];
-    let mut high = [f32::NEG_INFINITY; 3];
-    for (p, _) in items.iter() {
-        for a in 0..3 {
-            low[a] = low[a].min(p[a]);
-            high[a] = high[a].max(p[a]);
-        }
-    }
+    let (low, high) = cell;
     let axis = (0..3)
         .max_by(|&a, &b| (high[a] - low[a]).total_cmp(&(high[b] - low[b])))
         .unwrap_or(0);
@@ -238,9 +359,12 @@ fn build(items: &mut [([f32; 3], u32)], nodes: &mut Vec<Node>, leaves: &mut Vec<
         second: 0,
     });
     let (left, right) = items.split_at_mut(mid);
-    build(left, nodes, leaves);
+    let (mut left_high, mut right_low) = (high, low);
+    left_high[axis] = split;
+    right_low[axis] = split;
+    build(left, (low, left_high), nodes, leaves);
     nodes[here].second = nodes.len() as u32;
-    build(right, nodes, leaves);
+    build(right, (right_low, high), nodes, leaves);
 }
 
 #[cfg(test)]
@@ -295,10 +419,13 @@ mod tests {
                         .collect();
                     brute.sort_by(|a, b| a.0.total_cmp(&b.0));
                     brute.truncate(k);
-                    let got: Vec<f32> = found.as_slice().iter().map(|x| x.0).collect();
+                    let mut got: Vec<f32> = found.distances2().to_vec();
+                    got.sort_by(f32::total_cmp);
                     let want: Vec<f32> = brute.iter().map(|x| x.0).collect();
                     assert_eq!(got, want, "n {n} k {k} r {r}");
-                    for &(d2, id) in found.as_slice() {
+                    let farthest = want.last().copied().unwrap_or(0.0);
+                    assert_eq!(found.farthest_distance2(), farthest);
+                    for (&d2, &id) in found.distances2().iter().zip(found.ids()) {
                         let p = points[((id - 1) / 3) as usize];
                         let e = (0..3).map(|a| (p[a] - q[a]).powi(2)).sum::<f32>();
                         assert_eq!(e, d2);

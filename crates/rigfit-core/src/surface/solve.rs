@@ -293,13 +293,6 @@ impl OffsetMoments {
         self.second += (a * beta) * b.transpose();
     }
 
-    fn add_moments(&mut self, other: &Self) {
-        self.weight += other.weight;
-        self.first_a += other.first_a;
-        self.first_b += other.first_b;
-        self.second += other.second;
-    }
-
     /// `(sum beta q_a, sum beta q_b, sum beta q_a q_b^T)` for rotations `R_a`, `R_b`.
     #[inline]
     fn rotated(&self, ra: &Matrix3, rb: &Matrix3) -> (Vector3, Vector3, Matrix3) {
@@ -373,69 +366,175 @@ fn rigidity_pair_moments(model: &PatchModel, k: usize, l: usize) -> [OffsetMomen
     out
 }
 
-/// One block's share of the data term, summed over vertices: the isotropic part of the
-/// metric in rest-frame moments, and the part along the normal, `c u_a u_b^T` with
-/// `u = [q x n; n]`, in world coordinates.
-#[derive(Clone, Copy, Debug)]
-struct DataBlockSums {
-    isotropic: OffsetMoments,
-    rotation_rotation: Matrix3,
-    rotation_shift: Matrix3,
-    shift_rotation: Matrix3,
-    shift_shift: Matrix3,
+/// The upper triangle of a symmetric 3x3 matrix, row by row: `xx, xy, xz, yy, yz, zz`.
+const SYMMETRIC3: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+
+/// Adds `w a a^T` to the upper triangle `sym` (see [`SYMMETRIC3`]).
+#[inline]
+fn add_outer_symmetric(sym: &mut [f64; 6], w: f64, a: &[f64; 3]) {
+    for (s, &(r, c)) in sym.iter_mut().zip(&SYMMETRIC3) {
+        *s += w * a[r] * a[c];
+    }
 }
 
-impl Default for DataBlockSums {
+/// One diagonal block's share of the data term (a patch with itself), summed over the
+/// vertices it blends: the isotropic part as rest-frame moments `sum w`, `sum w a` and
+/// `sum w a a^T` (symmetric), and the part along the normal, `sum c u u^T` with
+/// `u = [q x n; n]` in world coordinates (symmetric: its upper triangle, row by row).
+#[derive(Clone, Copy, Debug)]
+struct OwnBlockSums {
+    weight: f64,
+    first: [f64; 3],
+    second: [f64; 6],
+    normal: [f64; 21],
+}
+
+impl Default for OwnBlockSums {
     fn default() -> Self {
         Self {
-            isotropic: OffsetMoments::default(),
-            rotation_rotation: Matrix3::zeros(),
-            rotation_shift: Matrix3::zeros(),
-            shift_rotation: Matrix3::zeros(),
-            shift_shift: Matrix3::zeros(),
+            weight: 0.0,
+            first: [0.0; 3],
+            second: [0.0; 6],
+            normal: [0.0; 21],
         }
     }
 }
 
-impl DataBlockSums {
-    fn add_sums(&mut self, other: &Self) {
-        self.isotropic.add_moments(&other.isotropic);
-        self.rotation_rotation += other.rotation_rotation;
-        self.rotation_shift += other.rotation_shift;
-        self.shift_rotation += other.shift_rotation;
-        self.shift_shift += other.shift_shift;
+impl OwnBlockSums {
+    #[inline]
+    fn add_vertex(&mut self, isotropic: f64, along_normal: f64, offset: &[f64; 3], u: &[f64; 6]) {
+        self.weight += isotropic;
+        for i in 0..3 {
+            self.first[i] += isotropic * offset[i];
+        }
+        add_outer_symmetric(&mut self.second, isotropic, offset);
+        let mut t = 0;
+        for i in 0..6 {
+            let ci = along_normal * u[i];
+            for &uj in &u[i..] {
+                self.normal[t] += ci * uj;
+                t += 1;
+            }
+        }
     }
 
-    /// Adds one vertex's share `J_a^T P J_b` (weights `isotropic` and `along_normal` times the
-    /// blend weights), from rest offsets and `q x n` for patches `a` and `b`.
+    fn add_sums(&mut self, other: &Self) {
+        self.weight += other.weight;
+        add_slices(&mut self.first, &other.first);
+        add_slices(&mut self.second, &other.second);
+        add_slices(&mut self.normal, &other.normal);
+    }
+
+    /// Adds the sums to the block of a patch with rotation `r`.
+    fn add_to_block(&self, block: &mut Block, r: &Matrix3) {
+        let first = Vector3::from(self.first);
+        let mut second = Matrix3::zeros();
+        for (&s, &(i, j)) in self.second.iter().zip(&SYMMETRIC3) {
+            second[(i, j)] = s;
+            second[(j, i)] = s;
+        }
+        let moments = OffsetMoments {
+            weight: self.weight,
+            first_a: first,
+            first_b: first,
+            second,
+        };
+        moments.add_to_block(block, 1.0, r, r);
+        let mut t = 0;
+        for i in 0..6 {
+            for j in i..6 {
+                block[6 * i + j] += self.normal[t];
+                if j != i {
+                    block[6 * j + i] += self.normal[t];
+                }
+                t += 1;
+            }
+        }
+    }
+}
+
+/// One off-diagonal block's share of the data term (patches `a < b` blended at the same
+/// vertices), summed over those vertices: as [`OwnBlockSums`], with the rest offsets `a_v`
+/// from patch `a`'s centre (those from `b`'s differ by the two centres' difference), and the
+/// part along the normal `sum c u_a u_b^T` in full (row-major).
+#[derive(Clone, Copy, Debug)]
+struct PairBlockSums {
+    weight: f64,
+    first: [f64; 3],
+    second: [f64; 6],
+    normal: [f64; 36],
+}
+
+impl Default for PairBlockSums {
+    fn default() -> Self {
+        Self {
+            weight: 0.0,
+            first: [0.0; 3],
+            second: [0.0; 6],
+            normal: [0.0; 36],
+        }
+    }
+}
+
+impl PairBlockSums {
     #[inline]
     fn add_vertex(
         &mut self,
         isotropic: f64,
         along_normal: f64,
-        normal: &Vector3,
-        offsets: (&Vector3, &Vector3),
-        q_cross_n: (&Vector3, &Vector3),
+        offset_a: &[f64; 3],
+        u: (&[f64; 6], &[f64; 6]),
     ) {
-        self.isotropic.add(isotropic, offsets.0, offsets.1);
-        let ua = q_cross_n.0 * along_normal;
-        let na = normal * along_normal;
-        self.rotation_rotation += ua * q_cross_n.1.transpose();
-        self.rotation_shift += ua * normal.transpose();
-        self.shift_rotation += na * q_cross_n.1.transpose();
-        self.shift_shift += na * normal.transpose();
-    }
-
-    fn add_to_block(&self, block: &mut Block, ra: &Matrix3, rb: &Matrix3) {
-        self.isotropic.add_to_block(block, 1.0, ra, rb);
-        for r in 0..3 {
-            for c in 0..3 {
-                block[6 * r + c] += self.rotation_rotation[(r, c)];
-                block[6 * r + c + 3] += self.rotation_shift[(r, c)];
-                block[6 * (r + 3) + c] += self.shift_rotation[(r, c)];
-                block[6 * (r + 3) + c + 3] += self.shift_shift[(r, c)];
+        self.weight += isotropic;
+        for i in 0..3 {
+            self.first[i] += isotropic * offset_a[i];
+        }
+        add_outer_symmetric(&mut self.second, isotropic, offset_a);
+        for i in 0..6 {
+            let ci = along_normal * u.0[i];
+            for j in 0..6 {
+                self.normal[6 * i + j] += ci * u.1[j];
             }
         }
+    }
+
+    fn add_sums(&mut self, other: &Self) {
+        self.weight += other.weight;
+        add_slices(&mut self.first, &other.first);
+        add_slices(&mut self.second, &other.second);
+        add_slices(&mut self.normal, &other.normal);
+    }
+
+    /// Adds the sums to the block of patches `a` and `b` (rotations `ra`, `rb`), where
+    /// `delta = c_a^0 - c_b^0`: with `b_v = a_v + delta`, `sum w b_v = sum w a_v + w delta`
+    /// and `sum w a_v b_v^T = sum w a_v a_v^T + (sum w a_v) delta^T`.
+    fn add_to_block(&self, block: &mut Block, ra: &Matrix3, rb: &Matrix3, delta: &Vector3) {
+        let first = Vector3::from(self.first);
+        let mut second = Matrix3::zeros();
+        for (&s, &(i, j)) in self.second.iter().zip(&SYMMETRIC3) {
+            second[(i, j)] = s;
+            second[(j, i)] = s;
+        }
+        let moments = OffsetMoments {
+            weight: self.weight,
+            first_a: first,
+            first_b: first + delta * self.weight,
+            second: second + first * delta.transpose(),
+        };
+        moments.add_to_block(block, 1.0, ra, rb);
+        for (b, n) in block.iter_mut().zip(&self.normal) {
+            *b += n;
+        }
+    }
+}
+
+/// Per patch blended at a vertex: index, alpha, rest offset, `q = R offset`, `u = [q x n; n]`.
+type BlendedPatch = (usize, f64, [f64; 3], Vector3, [f64; 6]);
+
+#[inline]
+fn add_slices(to: &mut [f64], from: &[f64]) {
+    for (t, f) in to.iter_mut().zip(from) {
+        *t += f;
     }
 }
 
@@ -525,13 +624,13 @@ pub fn gauss_newton_step(
     // isotropic part (summed as rest-frame moments, rotated once per block) and a rank-one
     // part along the normal. Two halves in parallel, each into its own sums, then added.
     let half = data_terms.len().div_ceil(2).max(1);
-    let partial: Vec<(Vec<DataBlockSums>, Vec<f64>)> = data_terms
+    let partial: Vec<(Vec<OwnBlockSums>, Vec<PairBlockSums>, Vec<f64>)> = data_terms
         .par_chunks(half)
         .map(|terms| {
-            let mut sums = vec![DataBlockSums::default(); system.block_count()];
+            let mut own = vec![OwnBlockSums::default(); n];
+            let mut pair = vec![PairBlockSums::default(); system.block_count()];
             let mut gradient = vec![0.0; 6 * n];
-            // Per blended patch: index, alpha, rest offset, q = R offset, q x n.
-            let mut blend: Vec<(usize, f64, Vector3, Vector3, Vector3)> = Vec::with_capacity(16);
+            let mut blend: Vec<BlendedPatch> = Vec::with_capacity(16);
             for term in terms {
                 let v = term.vertex;
                 let pr = term.metric * term.residual;
@@ -542,53 +641,52 @@ pub fn gauss_newton_step(
                 blend.extend(model.blend(v).map(|(k, a)| {
                     let rest_offset = model.rest[v] - model.rest_centre[k];
                     let q = pose.rotation[k] * rest_offset;
-                    (k, a, rest_offset, q, q.cross(&normal))
+                    let c = q.cross(&normal);
+                    let u = [c.x, c.y, c.z, normal.x, normal.y, normal.z];
+                    (k, a, rest_offset.into(), q, u)
                 }));
                 let first = model.blend_start[v] as usize;
-                for (i, &(k, alpha, offset, q, q_cross_n)) in blend.iter().enumerate() {
-                    add_jtr(&mut gradient[6 * k..6 * k + 6], alpha, &q, &pr);
-                    let (block, weight) = system.diagonal[first + i];
-                    sums[block as usize].add_vertex(
-                        isotropic * weight,
-                        along_normal * weight,
-                        &normal,
-                        (&offset, &offset),
-                        (&q_cross_n, &q_cross_n),
-                    );
+                for (i, (k, alpha, offset, q, u)) in blend.iter().enumerate() {
+                    add_jtr(&mut gradient[6 * k..6 * k + 6], *alpha, q, &pr);
+                    let weight = system.diagonal[first + i].1;
+                    own[*k].add_vertex(isotropic * weight, along_normal * weight, offset, u);
                 }
                 for &(i, j, block, weight) in system.vertex_pairs(v) {
-                    let (_, _, offset_a, _, qa_cross_n) = blend[i as usize];
-                    let (_, _, offset_b, _, qb_cross_n) = blend[j as usize];
-                    sums[block as usize].add_vertex(
+                    let (_, _, offset_a, _, ua) = &blend[i as usize];
+                    let ub = &blend[j as usize].4;
+                    pair[block as usize].add_vertex(
                         isotropic * weight,
                         along_normal * weight,
-                        &normal,
-                        (&offset_a, &offset_b),
-                        (&qa_cross_n, &qb_cross_n),
+                        offset_a,
+                        (ua, ub),
                     );
                 }
             }
-            (sums, gradient)
+            (own, pair, gradient)
         })
         .collect();
-    let mut sums = vec![DataBlockSums::default(); system.block_count()];
-    for (part_sums, part_gradient) in partial {
-        for (t, s) in sums.iter_mut().zip(&part_sums) {
+    let mut own = vec![OwnBlockSums::default(); n];
+    let mut pair = vec![PairBlockSums::default(); system.block_count()];
+    for (part_own, part_pair, part_gradient) in partial {
+        for (t, s) in own.iter_mut().zip(&part_own) {
             t.add_sums(s);
         }
-        for (x, y) in gradient.iter_mut().zip(&part_gradient) {
-            *x += y;
+        for (t, s) in pair.iter_mut().zip(&part_pair) {
+            t.add_sums(s);
         }
+        add_slices(&mut gradient, &part_gradient);
     }
     for (block, (sum, &(a, b))) in blocks
         .iter_mut()
-        .zip(sums.iter().zip(&system.block_patches))
+        .zip(pair.iter().zip(&system.block_patches))
     {
-        sum.add_to_block(
-            block,
-            &pose.rotation[a as usize],
-            &pose.rotation[b as usize],
-        );
+        let (a, b) = (a as usize, b as usize);
+        if a == b {
+            own[a].add_to_block(block, &pose.rotation[a]);
+        } else {
+            let delta = model.rest_centre[a] - model.rest_centre[b];
+            sum.add_to_block(block, &pose.rotation[a], &pose.rotation[b], &delta);
+        }
     }
 
     // Rigidity (eq. 4): residual x_k(v) - x_l(v) over v in P_k and P_l, weight
