@@ -1,10 +1,11 @@
 //! The few nearest points within a radius, for the E-step's candidate lists: a small kd-tree
 //! over single-precision points, rebuilt whenever the points move (a build costs about as
-//! much as a few hundred queries), and a sorted, fixed-capacity list of the nearest found.
+//! much as a few hundred queries), and an unordered, fixed-capacity list of the nearest found.
 //!
 //! A general-purpose tree (kiddo) spent about 7,500 instructions on one 12-nearest query
-//! here; this one, specialised to that query (leaves stored by coordinate, bounded by the
-//! caller's radius), about 2,700 on the same tracking run (BENCHMARKS.md).
+//! here; this one, specialised to that query (leaves stored by coordinate with their bounding
+//! boxes, bounded by the caller's radius), about 2,200 on the same tracking run
+//! (BENCHMARKS.md).
 
 /// Most neighbours a query keeps.
 pub const MAX_NEAREST: usize = 64;
