@@ -369,32 +369,67 @@ fn rigidity_pair_moments(model: &PatchModel, k: usize, l: usize) -> [OffsetMomen
 /// The upper triangle of a symmetric 3x3 matrix, row by row: `xx, xy, xz, yy, yz, zz`.
 const SYMMETRIC3: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
 
-/// Adds `w a a^T` to the upper triangle `sym` (see [`SYMMETRIC3`]).
-#[inline]
-fn add_outer_symmetric(sym: &mut [f64; 6], w: f64, a: &[f64; 3]) {
-    for (s, &(r, c)) in sym.iter_mut().zip(&SYMMETRIC3) {
-        *s += w * a[r] * a[c];
+/// The isotropic part of a block's data term, summed over vertices: rest-frame moments of the
+/// offsets `a_v` from one patch's rest centre, `sum w`, `sum w a` and `sum w a a^T`
+/// (symmetric: its upper triangle, see [`SYMMETRIC3`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct RestMoments {
+    weight: f64,
+    first: [f64; 3],
+    second: [f64; 6],
+}
+
+impl RestMoments {
+    #[inline]
+    fn add(&mut self, w: f64, a: &[f64; 3]) {
+        self.weight += w;
+        for i in 0..3 {
+            self.first[i] += w * a[i];
+        }
+        for (s, &(r, c)) in self.second.iter_mut().zip(&SYMMETRIC3) {
+            *s += w * a[r] * a[c];
+        }
+    }
+
+    fn add_sums(&mut self, other: &Self) {
+        self.weight += other.weight;
+        add_slices(&mut self.first, &other.first);
+        add_slices(&mut self.second, &other.second);
+    }
+
+    /// The moments of the pair `(a_v, b_v)` with `b_v = a_v + delta` (`delta = c_a^0 - c_b^0`,
+    /// zero for a patch with itself): `sum w b_v = sum w a_v + w delta` and
+    /// `sum w a_v b_v^T = sum w a_v a_v^T + (sum w a_v) delta^T`.
+    fn offset_moments(&self, delta: &Vector3) -> OffsetMoments {
+        let first = Vector3::from(self.first);
+        let mut second = Matrix3::zeros();
+        for (&s, &(i, j)) in self.second.iter().zip(&SYMMETRIC3) {
+            second[(i, j)] = s;
+            second[(j, i)] = s;
+        }
+        OffsetMoments {
+            weight: self.weight,
+            first_a: first,
+            first_b: first + delta * self.weight,
+            second: second + first * delta.transpose(),
+        }
     }
 }
 
 /// One diagonal block's share of the data term (a patch with itself), summed over the
-/// vertices it blends: the isotropic part as rest-frame moments `sum w`, `sum w a` and
-/// `sum w a a^T` (symmetric), and the part along the normal, `sum c u u^T` with
-/// `u = [q x n; n]` in world coordinates (symmetric: its upper triangle, row by row).
+/// vertices it blends: the isotropic part as [`RestMoments`], and the part along the normal,
+/// `sum c u u^T` with `u = [q x n; n]` in world coordinates (symmetric: its upper triangle,
+/// row by row).
 #[derive(Clone, Copy, Debug)]
 struct OwnBlockSums {
-    weight: f64,
-    first: [f64; 3],
-    second: [f64; 6],
+    isotropic: RestMoments,
     normal: [f64; 21],
 }
 
 impl Default for OwnBlockSums {
     fn default() -> Self {
         Self {
-            weight: 0.0,
-            first: [0.0; 3],
-            second: [0.0; 6],
+            isotropic: RestMoments::default(),
             normal: [0.0; 21],
         }
     }
@@ -403,11 +438,7 @@ impl Default for OwnBlockSums {
 impl OwnBlockSums {
     #[inline]
     fn add_vertex(&mut self, isotropic: f64, along_normal: f64, offset: &[f64; 3], u: &[f64; 6]) {
-        self.weight += isotropic;
-        for i in 0..3 {
-            self.first[i] += isotropic * offset[i];
-        }
-        add_outer_symmetric(&mut self.second, isotropic, offset);
+        self.isotropic.add(isotropic, offset);
         let mut t = 0;
         for i in 0..6 {
             let ci = along_normal * u[i];
@@ -419,27 +450,15 @@ impl OwnBlockSums {
     }
 
     fn add_sums(&mut self, other: &Self) {
-        self.weight += other.weight;
-        add_slices(&mut self.first, &other.first);
-        add_slices(&mut self.second, &other.second);
+        self.isotropic.add_sums(&other.isotropic);
         add_slices(&mut self.normal, &other.normal);
     }
 
     /// Adds the sums to the block of a patch with rotation `r`.
     fn add_to_block(&self, block: &mut Block, r: &Matrix3) {
-        let first = Vector3::from(self.first);
-        let mut second = Matrix3::zeros();
-        for (&s, &(i, j)) in self.second.iter().zip(&SYMMETRIC3) {
-            second[(i, j)] = s;
-            second[(j, i)] = s;
-        }
-        let moments = OffsetMoments {
-            weight: self.weight,
-            first_a: first,
-            first_b: first,
-            second,
-        };
-        moments.add_to_block(block, 1.0, r, r);
+        self.isotropic
+            .offset_moments(&Vector3::zeros())
+            .add_to_block(block, 1.0, r, r);
         let mut t = 0;
         for i in 0..6 {
             for j in i..6 {
@@ -454,23 +473,19 @@ impl OwnBlockSums {
 }
 
 /// One off-diagonal block's share of the data term (patches `a < b` blended at the same
-/// vertices), summed over those vertices: as [`OwnBlockSums`], with the rest offsets `a_v`
-/// from patch `a`'s centre (those from `b`'s differ by the two centres' difference), and the
-/// part along the normal `sum c u_a u_b^T` in full (row-major).
+/// vertices), summed over those vertices: the isotropic part as [`RestMoments`] of the
+/// offsets from patch `a`'s centre (those from `b`'s differ by the two centres' difference),
+/// and the part along the normal `sum c u_a u_b^T` in full (row-major).
 #[derive(Clone, Copy, Debug)]
 struct PairBlockSums {
-    weight: f64,
-    first: [f64; 3],
-    second: [f64; 6],
+    isotropic: RestMoments,
     normal: [f64; 36],
 }
 
 impl Default for PairBlockSums {
     fn default() -> Self {
         Self {
-            weight: 0.0,
-            first: [0.0; 3],
-            second: [0.0; 6],
+            isotropic: RestMoments::default(),
             normal: [0.0; 36],
         }
     }
@@ -485,11 +500,7 @@ impl PairBlockSums {
         offset_a: &[f64; 3],
         u: (&[f64; 6], &[f64; 6]),
     ) {
-        self.weight += isotropic;
-        for i in 0..3 {
-            self.first[i] += isotropic * offset_a[i];
-        }
-        add_outer_symmetric(&mut self.second, isotropic, offset_a);
+        self.isotropic.add(isotropic, offset_a);
         for i in 0..6 {
             let ci = along_normal * u.0[i];
             for j in 0..6 {
@@ -499,29 +510,16 @@ impl PairBlockSums {
     }
 
     fn add_sums(&mut self, other: &Self) {
-        self.weight += other.weight;
-        add_slices(&mut self.first, &other.first);
-        add_slices(&mut self.second, &other.second);
+        self.isotropic.add_sums(&other.isotropic);
         add_slices(&mut self.normal, &other.normal);
     }
 
     /// Adds the sums to the block of patches `a` and `b` (rotations `ra`, `rb`), where
-    /// `delta = c_a^0 - c_b^0`: with `b_v = a_v + delta`, `sum w b_v = sum w a_v + w delta`
-    /// and `sum w a_v b_v^T = sum w a_v a_v^T + (sum w a_v) delta^T`.
+    /// `delta = c_a^0 - c_b^0`.
     fn add_to_block(&self, block: &mut Block, ra: &Matrix3, rb: &Matrix3, delta: &Vector3) {
-        let first = Vector3::from(self.first);
-        let mut second = Matrix3::zeros();
-        for (&s, &(i, j)) in self.second.iter().zip(&SYMMETRIC3) {
-            second[(i, j)] = s;
-            second[(j, i)] = s;
-        }
-        let moments = OffsetMoments {
-            weight: self.weight,
-            first_a: first,
-            first_b: first + delta * self.weight,
-            second: second + first * delta.transpose(),
-        };
-        moments.add_to_block(block, 1.0, ra, rb);
+        self.isotropic
+            .offset_moments(delta)
+            .add_to_block(block, 1.0, ra, rb);
         for (b, n) in block.iter_mut().zip(&self.normal) {
             *b += n;
         }
