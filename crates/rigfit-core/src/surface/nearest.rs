@@ -105,10 +105,15 @@ impl NearestFew {
 
     /// The largest squared distance kept (0 when empty).
     pub fn farthest_distance2(&self) -> f32 {
-        self.distance2[..self.len]
-            .iter()
-            .copied()
-            .fold(0.0, f32::max)
+        if self.is_full() {
+            // Tracked since the list filled.
+            self.farthest.0
+        } else {
+            self.distance2[..self.len]
+                .iter()
+                .copied()
+                .fold(0.0, f32::max)
+        }
     }
 
     /// The ids kept, in no particular order.
