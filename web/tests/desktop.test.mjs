@@ -4,7 +4,7 @@
 import { after, before, describe, test } from 'node:test';
 import assert from 'node:assert/strict';
 import { execFileSync } from 'node:child_process';
-import { existsSync, mkdtempSync, readFileSync } from 'node:fs';
+import { existsSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import {
@@ -176,24 +176,28 @@ describe('the page on the desktop', () => {
 
   test('exports the posed, keyed character as .glb and .bvh; rigfit info reads them back', async () => {
     const dir = mkdtempSync(join(tmpdir(), 'rigfit-web-export-'));
-    for (const [button, ext] of [
-      ['export-glb', 'glb'],
-      ['export-bvh', 'bvh'],
-    ]) {
-      const [download] = await Promise.all([
-        page.waitForEvent('download', { timeout: 30000 }),
-        page.click(`button[data-command="${button}"]`),
-      ]);
-      assert.match(download.suggestedFilename(), new RegExp(`\\.${ext}$`));
-      const file = join(dir, `exported.${ext}`);
-      await download.saveAs(file);
-      assert.ok(readFileSync(file).length > 100);
-      const info = execFileSync(rigfitBinary, ['info', file], { encoding: 'utf8' });
-      if (ext === 'glb') {
-        assert.match(info, /^\s*rigfit: 0\.500 s, 2 frames/m, info);
-      } else {
-        assert.match(info, /13 frames/, info);
+    try {
+      for (const [button, ext] of [
+        ['export-glb', 'glb'],
+        ['export-bvh', 'bvh'],
+      ]) {
+        const [download] = await Promise.all([
+          page.waitForEvent('download', { timeout: 30000 }),
+          page.click(`button[data-command="${button}"]`),
+        ]);
+        assert.match(download.suggestedFilename(), new RegExp(`\\.${ext}$`));
+        const file = join(dir, `exported.${ext}`);
+        await download.saveAs(file);
+        assert.ok(readFileSync(file).length > 100);
+        const info = execFileSync(rigfitBinary, ['info', file], { encoding: 'utf8' });
+        if (ext === 'glb') {
+          assert.match(info, /^\s*rigfit: 0\.500 s, 2 frames/m, info);
+        } else {
+          assert.match(info, /13 frames/, info);
+        }
       }
+    } finally {
+      rmSync(dir, { recursive: true, force: true });
     }
     assert.match(await page.textContent('#status'), /exported/);
   });

@@ -2,7 +2,7 @@
 // through playwright-core, open the page, and small helpers over window.rigfit.
 
 import { spawn } from 'node:child_process';
-import { existsSync, mkdirSync, mkdtempSync, readFileSync } from 'node:fs';
+import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -81,6 +81,15 @@ export async function launchBrowser() {
       '--enable-unsafe-swiftshader',
     ],
   });
+  // Closing the browser also removes its profile folder.
+  const close = context.close.bind(context);
+  context.close = async (...args) => {
+    try {
+      await close(...args);
+    } finally {
+      rmSync(userDataDir, { recursive: true, force: true });
+    }
+  };
   return context;
 }
 
