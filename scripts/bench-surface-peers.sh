@@ -8,7 +8,8 @@
 #   frames included; PEER picks among rustcpd, cycpd, nricp, pycpd, all by default)
 #
 # Every tool runs on one thread (../shared/peers.md): rigfit, rustcpd (rayon) and the numpy
-# ones (BLAS) alike. THREADS=2 gives every tool both cores instead.
+# ones (BLAS) alike. THREADS=2 gives every tool both cores instead. RUNS=N runs every tool N
+# times, taking turns, and shows the median time with each run's (default 1).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
@@ -41,7 +42,7 @@ for spec in "assimp/BCN_Epileptic.glb jump bcn" "assimp/Testwuson.glb run wuson"
   rm -rf "$dir" && mkdir -p "$dir"
   "$sequence" "$data/$1" "$2" "$dir/seq" 30 10000 > /dev/null
   scans=$(for f in $(seq 0 $((frames - 1))); do printf '%s/seq/scan_%04d.ply ' "$dir" "$f"; done)
-  # shellcheck disable=SC2086
-  "$rigfit" surface "$dir/seq/reference.ply" $scans -o "$dir/rigfit" --report "$dir/rigfit.json" > /dev/null
-  "$venv/bin/python" scripts/surface_peers.py "$dir/seq" "$dir/rigfit" "$dir/rigfit.json" "$frames" ${peers[@]+"${peers[@]}"}
+  run_rigfit="\"$rigfit\" surface \"$dir/seq/reference.ply\" $scans -o \"$dir/rigfit\" --report \"$dir/rigfit.json\""
+  eval "$run_rigfit" > /dev/null
+  RIGFIT_RERUN=$run_rigfit "$venv/bin/python" scripts/surface_peers.py "$dir/seq" "$dir/rigfit" "$dir/rigfit.json" "$frames" ${peers[@]+"${peers[@]}"}
 done

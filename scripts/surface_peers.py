@@ -9,7 +9,8 @@ SEQUENCE_DIR is written by `cargo run --release -p rigfit-cli --example surface_
 `rigfit surface`'s frame_NNNNN.ply for the same scans and RIGFIT_REPORT its JSON report.
 Prints one markdown row per method: mean and 95th percentile of the per-vertex error (as a
 percentage of the reference's bounding-box diagonal) over the first FRAMES frames, and the
-seconds per frame.
+milliseconds per frame (with RUNS=N, the median of N runs of every tool taken in turns, and
+each run's figure; RIGFIT_RERUN is then the shell command that runs rigfit again).
 
 Each peer tracks frame to frame: frame f starts from its own result at frame f - 1 (the
 reference at frame 0) and moves the reference's vertices onto the scan's points.
@@ -20,6 +21,9 @@ with a 1e-5 jitter of the source.
 """
 
 import json
+import os
+import statistics
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -169,16 +173,14 @@ def main():
     scans = [load_points(seq_dir / f"scan_{f:04d}.ply") for f in range(frames)]
     truths = [load_mesh(seq_dir / f"truth_{f:04d}.ply")[0] for f in range(frames)]
     name = f"{Path(meta['asset']).name} ({meta['clip']})"
-    rows = []
 
-    report = json.loads(Path(rigfit_report).read_text())
-    rigfit = [load_mesh(rigfit_dir / f"frame_{f:05d}.ply")[0] for f in range(frames)]
-    seconds = sum(fr["seconds"] for fr in report["frames"][:frames]) / frames
-    rows.append(("rigfit surface", *score(rigfit, truths, diagonal), seconds))
-
-    stay = [reference] * frames
-    rows.append(("(reference, not moved)", *score(stay, truths, diagonal), 0.0))
-
+    # RUNS > 1: every tool runs that many times, rigfit and the peers taking turns (rigfit
+    # again through the RIGFIT_RERUN command), and the time shown is the median with every
+    # run's figure: this machine's speed drifts by tens of percent within minutes.
+    runs = max(1, int(os.environ.get("RUNS", "1")))
+    rerun = os.environ.get("RIGFIT_RERUN")
+    if runs > 1 and not rerun:
+        sys.exit("surface_peers.py: RUNS > 1 needs RIGFIT_RERUN, the command that runs rigfit again")
     peers = [
         ("rustcpd 4.0.0 non-rigid (low_rank=300)", track_rustcpd),
         ("cycpd 0.28 non-rigid (low_rank, 20 iterations)", track_cycpd_small_sigma),
@@ -186,20 +188,49 @@ def main():
         ("pycpd 2.0.0 non-rigid (20 iterations)", track_pycpd),
     ]
     only = set(a for a in sys.argv[5:])
-    for label, track in peers:
-        if only and not any(o in label for o in only):
-            continue
-        t0 = time.perf_counter()
-        try:
-            fitted = track(reference, faces, scans, diagonal, outliers)
-        except Exception as e:
-            print(f"{label} failed: {e}", file=sys.stderr)
-            continue
-        elapsed = (time.perf_counter() - t0) / frames
-        rows.append((label, *score(fitted, truths, diagonal), elapsed))
+    peers = [(label, track) for label, track in peers if not only or any(o in label for o in only)]
+    scores = {}
+    times = {label: [] for label in ["rigfit surface"] + [label for label, _ in peers]}
+    failed = set()
+    for run in range(runs):
+        if run > 0:
+            subprocess.run(rerun, shell=True, check=True, stdout=subprocess.DEVNULL)
+        report = json.loads(Path(rigfit_report).read_text())
+        times["rigfit surface"].append(
+            sum(fr["seconds"] for fr in report["frames"][:frames]) / frames
+        )
+        if run == 0:
+            rigfit = [load_mesh(rigfit_dir / f"frame_{f:05d}.ply")[0] for f in range(frames)]
+            scores["rigfit surface"] = score(rigfit, truths, diagonal)
+        for label, track in peers:
+            if label in failed:
+                continue
+            t0 = time.perf_counter()
+            try:
+                fitted = track(reference, faces, scans, diagonal, outliers)
+            except Exception as e:
+                print(f"{label} failed: {e}", file=sys.stderr)
+                failed.add(label)
+                continue
+            times[label].append((time.perf_counter() - t0) / frames)
+            if run == 0:
+                scores[label] = score(fitted, truths, diagonal)
 
-    for label, mean, p95, sec in rows:
-        print(f"| {name} | {label} | {mean:.3f} | {p95:.3f} | {sec * 1000:.1f} |")
+    def shown(label):
+        t = sorted(times[label])
+        median = statistics.median(t) * 1000
+        if len(t) == 1:
+            return f"{median:.1f}"
+        return f"{median:.1f} ({' / '.join(f'{x * 1000:.1f}' for x in times[label])})"
+
+    stay = [reference] * frames
+    rows = [("rigfit surface", *scores["rigfit surface"], shown("rigfit surface"))]
+    rows.append(("(reference, not moved)", *score(stay, truths, diagonal), "0.0"))
+    for label, _ in peers:
+        if label in scores:
+            rows.append((label, *scores[label], shown(label)))
+    for label, mean, p95, ms in rows:
+        print(f"| {name} | {label} | {mean:.3f} | {p95:.3f} | {ms} |")
         sys.stdout.flush()
 
 
