@@ -217,9 +217,8 @@ def main():
                 scores[label] = score(fitted, truths, diagonal)
 
     def shown(label):
-        t = sorted(times[label])
-        median = statistics.median(t) * 1000
-        if len(t) == 1:
+        median = statistics.median(times[label]) * 1000
+        if len(times[label]) == 1:
             return f"{median:.1f}"
         return f"{median:.1f} ({' / '.join(f'{x * 1000:.1f}' for x in times[label])})"
 

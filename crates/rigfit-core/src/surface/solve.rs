@@ -416,24 +416,34 @@ impl RestMoments {
     }
 }
 
-/// One diagonal block's share of the data term (a patch with itself), summed over the
-/// vertices it blends: the isotropic part as [`RestMoments`], and the part along the normal,
-/// `sum c u u^T` with `u = [q x n; n]` in world coordinates (symmetric: its upper triangle,
-/// row by row).
+/// One block's share of the data term, summed over the vertices it blends: the isotropic part
+/// as [`RestMoments`], and the `N` sums of the part along the normal, `c u_a u_b^T` with
+/// `u = [q x n; n]` in world coordinates ([`OwnBlockSums`], [`PairBlockSums`]).
 #[derive(Clone, Copy, Debug)]
-struct OwnBlockSums {
+struct BlockSums<const N: usize> {
     isotropic: RestMoments,
-    normal: [f64; 21],
+    normal: [f64; N],
 }
 
-impl Default for OwnBlockSums {
+impl<const N: usize> Default for BlockSums<N> {
     fn default() -> Self {
         Self {
             isotropic: RestMoments::default(),
-            normal: [0.0; 21],
+            normal: [0.0; N],
         }
     }
 }
+
+impl<const N: usize> BlockSums<N> {
+    fn add_sums(&mut self, other: &Self) {
+        self.isotropic.add_sums(&other.isotropic);
+        add_slices(&mut self.normal, &other.normal);
+    }
+}
+
+/// A diagonal block (a patch with itself): the part along the normal is symmetric, kept as
+/// its upper triangle, row by row.
+type OwnBlockSums = BlockSums<21>;
 
 impl OwnBlockSums {
     #[inline]
@@ -447,11 +457,6 @@ impl OwnBlockSums {
                 t += 1;
             }
         }
-    }
-
-    fn add_sums(&mut self, other: &Self) {
-        self.isotropic.add_sums(&other.isotropic);
-        add_slices(&mut self.normal, &other.normal);
     }
 
     /// Adds the sums to the block of a patch with rotation `r`.
@@ -472,24 +477,10 @@ impl OwnBlockSums {
     }
 }
 
-/// One off-diagonal block's share of the data term (patches `a < b` blended at the same
-/// vertices), summed over those vertices: the isotropic part as [`RestMoments`] of the
-/// offsets from patch `a`'s centre (those from `b`'s differ by the two centres' difference),
-/// and the part along the normal `sum c u_a u_b^T` in full (row-major).
-#[derive(Clone, Copy, Debug)]
-struct PairBlockSums {
-    isotropic: RestMoments,
-    normal: [f64; 36],
-}
-
-impl Default for PairBlockSums {
-    fn default() -> Self {
-        Self {
-            isotropic: RestMoments::default(),
-            normal: [0.0; 36],
-        }
-    }
-}
+/// An off-diagonal block (patches `a < b` blended at the same vertices): the isotropic part of
+/// the offsets from patch `a`'s centre (those from `b`'s differ by the two centres'
+/// difference), the part along the normal in full (row-major).
+type PairBlockSums = BlockSums<36>;
 
 impl PairBlockSums {
     #[inline]
@@ -507,11 +498,6 @@ impl PairBlockSums {
                 self.normal[6 * i + j] += ci * u.1[j];
             }
         }
-    }
-
-    fn add_sums(&mut self, other: &Self) {
-        self.isotropic.add_sums(&other.isotropic);
-        add_slices(&mut self.normal, &other.normal);
     }
 
     /// Adds the sums to the block of patches `a` and `b` (rotations `ra`, `rb`), where
