@@ -142,28 +142,6 @@ impl Observations {
         self.counts.get(i).copied().unwrap_or(1)
     }
 
-    /// One point in `stride`, in the order given, each standing for itself and the points it
-    /// skips (their counts summed). Scans come in no particular order or in scan-line order;
-    /// either way every part of the surface keeps its share of points.
-    pub fn thinned(&self, stride: usize) -> Observations {
-        if stride <= 1 {
-            return self.clone();
-        }
-        let mut thinned = Observations {
-            oriented: self.oriented,
-            ..Observations::default()
-        };
-        for start in (0..self.points.len()).step_by(stride) {
-            let end = (start + stride).min(self.points.len());
-            thinned.points.push(self.points[start]);
-            thinned.normals.push(self.normals[start]);
-            thinned
-                .counts
-                .push((start..end).map(|i| self.count(i)).sum());
-        }
-        thinned
-    }
-
     /// The points merged by cubes of side `cell` and by normal direction (the axis the normal
     /// is closest to, and its sign when normals are oriented, so that the two sides of a
     /// thin part stay apart): one point per group at the mean of its points, with their
@@ -297,6 +275,11 @@ const MAX_SLOTS: usize = super::nearest::MAX_NEAREST;
 /// list was complete within `cover` when searched, and no hypothesis has moved more than the
 /// drift summed since. Points are visited in a spatial (Morton) order, so that neighbouring
 /// points read neighbouring memory.
+///
+/// A thinned E-step ([`EStepCache::set_stride`]) uses the points at ranks `0, s, 2s, ...` of
+/// that order, each standing for itself and the `s - 1` after it: an even spread over the
+/// surface. Their lists stay in the cache, so the first E-step on every point searches only
+/// the others.
 #[derive(Clone, Debug, Default)]
 pub struct EStepCache {
     /// The data the lists are for (address and length).
@@ -309,9 +292,11 @@ pub struct EStepCache {
     list: Vec<u32>,
     count: Vec<u8>,
     /// The radius within which the list was complete when it was searched, and the E-step
-    /// that searched it.
+    /// that searched it ([`NEVER_SEARCHED`] if none has).
     cover: Vec<f64>,
     searched_at: Vec<u32>,
+    /// One point in `stride` (by rank) takes part in the E-steps (0 and 1: every point).
+    stride: usize,
     /// `drift[t]`: the largest move of any hypothesis, summed over E-steps `1..=t`.
     drift: Vec<f64>,
     /// Every blend entry's prediction at the last E-step.
@@ -328,7 +313,19 @@ impl EStepCache {
         self.previous.clear();
         self.drift.clear();
     }
+
+    /// The next E-steps use one point in `stride` of the visiting order, each counted as the
+    /// points it stands for (1: every point).
+    pub fn set_stride(&mut self, stride: usize) {
+        self.stride = stride.max(1);
+    }
 }
+
+/// `searched_at` of a point no E-step has searched yet.
+const NEVER_SEARCHED: u32 = u32::MAX;
+
+/// Points per parallel task of the posterior loop.
+const POSTERIOR_CHUNK: usize = 1024;
 
 /// Runs the E-step: posteriors of every point over the patches and the outlier component
 /// (eq. 8), for the deformed mesh `positions` of `pose`.
@@ -492,6 +489,9 @@ pub fn e_step_predicted(
     let cutoff = options.cutoff_sigmas * sigma;
     let cut2 = cutoff * cutoff;
     let slots = options.max_candidates.clamp(1, MAX_SLOTS);
+    let stride = cache.stride.max(1);
+    // The ranks taking part are `a * stride` for `a < active`.
+    let active = n_points.div_ceil(stride);
     // Predictions of one vertex closer than this to its own patch's add nothing to search.
     let merge = 0.3 * model.mean_edge;
     let hypotheses = Hypotheses::new(model, predictions, merge);
@@ -507,7 +507,7 @@ pub fn e_step_predicted(
         cache.list = vec![0; n_points * slots];
         cache.count = vec![0; n_points];
         cache.cover = vec![0.0; n_points];
-        cache.searched_at = vec![0; n_points];
+        cache.searched_at = vec![NEVER_SEARCHED; n_points];
         cache.drift = vec![0.0];
         cache.vertex_drift.clear();
         cache.vertex_drift.push(vec![0.0; n_vertices]);
@@ -548,16 +548,20 @@ pub fn e_step_predicted(
     // Keep or search each list again, by how far the hypotheses around its vertices moved
     // since it was searched; note the points (ranks) that need a search.
     let needs_search: Vec<u32> = if fresh {
-        (0..n_points as u32).collect()
+        (0..active).map(|a| (a * stride) as u32).collect()
     } else {
         let (list, count) = (&cache.list, &cache.count);
         let (drift, cover, searched_at) = (&cache.drift, &cache.cover, &cache.searched_at);
         let vertex_drift = &cache.vertex_drift;
         let drift_here = &vertex_drift[now as usize];
         let keep_below = (REUSE_DRIFT * model.mean_edge) as f32;
-        (0..n_points)
+        (0..active)
             .into_par_iter()
-            .filter_map(|r| {
+            .filter_map(|a| {
+                let r = a * stride;
+                if searched_at[r] == NEVER_SEARCHED {
+                    return Some(r as u32);
+                }
                 let then = searched_at[r] as usize;
                 let listed = &list[r * slots..][..count[r] as usize];
                 if listed.is_empty() {
@@ -668,30 +672,36 @@ pub fn e_step_predicted(
     let cos_limit = options.normal_angle.to_radians().cos() as f32;
     let cut2_single = cut2 as f32;
 
-    // Per point: the best vertex of each patch found, its posterior.
-    struct Chunk {
-        entries: Vec<(u32, u32, f64)>,
-        inliers: usize,
-        weighted_residual: f64,
-    }
-    let chunks: Vec<Chunk> = cache
-        .order
-        .par_chunks(1024)
-        .enumerate()
-        .map(|(c, points)| {
-            let mut chunk = Chunk {
-                entries: Vec::with_capacity(points.len() * 2),
-                inliers: 0,
-                weighted_residual: 0.0,
-            };
-            let mut found: Vec<(usize, usize, f64)> = Vec::with_capacity(16);
-            for (j, &i) in points.iter().enumerate() {
-                let r = c * 1024 + j;
-                let i = i as usize;
+    let two_sigma2 = 2.0 * sigma * sigma;
+    // Posteriors (eq. 8) summed per vertex: each task adds its points into its own sums,
+    // and the tasks' sums are added at the end (as many as the pool splits the work into).
+    let empty = || VertexTargets {
+        weight: vec![0.0; n_vertices],
+        weighted_sum: vec![Vector3::zeros(); n_vertices],
+        weighted_square: vec![0.0; n_vertices],
+        inliers: 0,
+        weighted_residual: 0.0,
+    };
+    (0..active.div_ceil(POSTERIOR_CHUNK))
+        .into_par_iter()
+        .fold(empty, |mut sums, c| {
+            // Per point: the best vertex of each patch found, `(patch, vertex, d2)`.
+            let mut found = [(0u32, 0u32, 0.0f64); MAX_SLOTS];
+            for a in c * POSTERIOR_CHUNK..((c + 1) * POSTERIOR_CHUNK).min(active) {
+                let r = a * stride;
+                let i = cache.order[r] as usize;
                 let y = &data.points[i];
                 let ny = data.normals[i];
-                let count = data.count(i) as f64;
-                found.clear();
+                // The point stands for the ones up to the next rank taking part.
+                let count = if stride == 1 {
+                    data.count(i) as f64
+                } else {
+                    cache.order[r..(r + stride).min(n_points)]
+                        .iter()
+                        .map(|&j| data.count(j as usize) as f64)
+                        .sum()
+                };
+                let mut n_found = 0;
                 let list = &cache.list[r * slots..][..cache.count[r] as usize];
                 let y_local = to_local(y, &hypotheses.origin);
                 let ny_single = [ny.x as f32, ny.y as f32, ny.z as f32];
@@ -712,67 +722,64 @@ pub fn e_step_predicted(
                     if !compatible {
                         continue;
                     }
-                    let (k, v) = (h.patch as usize, h.vertex as usize);
                     let d2_hypothesis = d2_hypothesis as f64;
                     // v_i^k: the hypothesis of patch k nearest to y_i.
-                    match found.iter_mut().find(|f| f.0 == k) {
-                        Some(f) if d2_hypothesis < f.2 => *f = (k, v, d2_hypothesis),
+                    match found[..n_found].iter_mut().find(|f| f.0 == h.patch) {
+                        Some(f) if d2_hypothesis < f.2 => *f = (h.patch, h.vertex, d2_hypothesis),
                         Some(_) => {}
-                        None => found.push((k, v, d2_hypothesis)),
+                        None => {
+                            found[n_found] = (h.patch, h.vertex, d2_hypothesis);
+                            n_found += 1;
+                        }
                     }
                 }
-                for f in found.iter_mut() {
-                    // The component is centred on the deformed vertex (eq. 7).
-                    f.2 = (y - positions[f.1]).norm_squared();
-                }
-                if found.is_empty() {
+                if n_found == 0 {
                     continue;
                 }
-                // Eq. 8: prior times Gaussian (eq. 7), over the sum with the outlier term.
+                let found = &mut found[..n_found];
+                // Eq. 8: prior times Gaussian (eq. 7), over the sum with the outlier term; the
+                // component is centred on the deformed vertex. The likelihood replaces the
+                // distance from here on.
                 let mut total = outlier_density;
                 for f in found.iter_mut() {
-                    let p = patch_prior[f.0] * gauss_norm * (-f.2 / (2.0 * sigma * sigma)).exp();
+                    let d2 = (y - positions[f.1 as usize]).norm_squared();
+                    let p = patch_prior[f.0 as usize] * gauss_norm * (-d2 / two_sigma2).exp();
                     total += p;
-                    // The likelihood replaces the distance from here on.
                     f.2 = p;
                 }
-                let mut inlier_mass = 0.0;
+                let (square, mut inlier_mass) = (y.coords.norm_squared(), 0.0);
                 for &(_, v, p) in found.iter() {
                     let w = p / total;
                     if w > 1e-8 {
                         inlier_mass += w;
-                        // A merged point counts as the points it stands for.
-                        chunk.entries.push((i as u32, v as u32, w * count));
-                        chunk.weighted_residual += w * count * (y - positions[v]).norm_squared();
+                        // A merged or thinned point counts as the points it stands for.
+                        let (v, w) = (v as usize, w * count);
+                        sums.weight[v] += w;
+                        sums.weighted_sum[v] += y.coords * w;
+                        sums.weighted_square[v] += w * square;
+                        sums.weighted_residual += w * (y - positions[v]).norm_squared();
                     }
                 }
                 if inlier_mass > 0.5 {
-                    chunk.inliers += count as usize;
+                    sums.inliers += count as usize;
                 }
             }
-            chunk
+            sums
         })
-        .collect();
-
-    let mut targets = VertexTargets {
-        weight: vec![0.0; n_vertices],
-        weighted_sum: vec![Vector3::zeros(); n_vertices],
-        weighted_square: vec![0.0; n_vertices],
-        inliers: 0,
-        weighted_residual: 0.0,
-    };
-    for chunk in chunks {
-        targets.inliers += chunk.inliers;
-        targets.weighted_residual += chunk.weighted_residual;
-        for (i, v, w) in chunk.entries {
-            let y = data.points[i as usize].coords;
-            let v = v as usize;
-            targets.weight[v] += w;
-            targets.weighted_sum[v] += y * w;
-            targets.weighted_square[v] += w * y.norm_squared();
-        }
-    }
-    targets
+        .reduce(empty, |mut a, b| {
+            for (x, y) in a.weight.iter_mut().zip(&b.weight) {
+                *x += y;
+            }
+            for (x, y) in a.weighted_sum.iter_mut().zip(&b.weighted_sum) {
+                *x += y;
+            }
+            for (x, y) in a.weighted_square.iter_mut().zip(&b.weighted_square) {
+                *x += y;
+            }
+            a.inliers += b.inliers;
+            a.weighted_residual += b.weighted_residual;
+            a
+        })
 }
 
 #[cfg(test)]
@@ -831,22 +838,45 @@ mod tests {
         }
     }
 
+    /// A thinned E-step counts each point it takes as the ones it stands for, and the full
+    /// E-step after it, keeping the thinned points' lists, gives a fresh one's posteriors.
     #[test]
-    fn thinning_keeps_one_point_in_stride_and_counts_the_rest() {
-        let data = Observations {
-            points: (0..10).map(|i| Point3::new(i as f64, 0.0, 0.0)).collect(),
-            normals: vec![Vector3::z(); 10],
-            oriented: true,
-            counts: vec![2; 10],
-        };
-        let thinned = data.thinned(4);
-        let xs: Vec<f64> = thinned.points.iter().map(|p| p.x).collect();
-        assert_eq!(xs, [0.0, 4.0, 8.0]);
-        // Each stands for its own and the skipped points' counts: 4 + 4 + 2 points of 2.
-        assert_eq!(thinned.counts, [8, 8, 4]);
-        assert_eq!(thinned.normals.len(), 3);
-        assert!(thinned.oriented);
-        assert_eq!(data.thinned(1).points.len(), 10);
+    fn thinned_e_steps_count_every_point_and_hand_their_lists_on() {
+        let reference = torus(40, 20);
+        let model = PatchModel::new(&reference, &PatchOptions::default()).expect("model");
+        let diagonal = model.diagonal;
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let truth = bend(&reference, 0.2);
+        let cloud = scan(
+            &truth,
+            &reference.triangles,
+            4000,
+            0.003 * diagonal,
+            0.1,
+            &mut rng,
+        );
+        let data = Observations::from_mesh(&cloud).expect("frame");
+        let (sigma, options) = (0.02 * diagonal, DataTermOptions::default());
+        let pose = model.rest_pose();
+        let positions = model.positions(&pose);
+        let fresh = e_step(&model, &pose, &positions, &data, sigma, &options);
+        let mut cache = EStepCache::default();
+        cache.set_stride(4);
+        let thinned = e_step_cached(
+            &model, &pose, &positions, &data, sigma, &options, &mut cache,
+        );
+        let (wt, wf) = (thinned.total_weight(), fresh.total_weight());
+        assert!((wt - wf).abs() < 0.05 * wf, "{wt} against {wf}");
+        let (it, inf) = (thinned.inliers as f64, fresh.inliers as f64);
+        assert!((it - inf).abs() < 0.05 * inf, "{it} against {inf}");
+        cache.set_stride(1);
+        let full = e_step_cached(
+            &model, &pose, &positions, &data, sigma, &options, &mut cache,
+        );
+        assert_eq!(full.inliers, fresh.inliers);
+        for (a, b) in full.weight.iter().zip(&fresh.weight) {
+            assert!((a - b).abs() < 1e-9 * (1.0 + b), "{a} against {b}");
+        }
     }
 
     /// Merging keeps every point counted and the two sides of a thin part apart.

@@ -3,16 +3,18 @@
 //! six per patch (a rotation increment `R_k <- exp([w_k]x) R_k` and a centre shift); the
 //! normal equations are block-sparse with the pattern of the patch adjacency (two rings:
 //! a vertex blends its patch's neighbours, which may not neighbour each other). The pattern
-//! never changes, so its symbolic Cholesky factorisation is computed once and reused.
+//! never changes, so its fill-reducing order and symbolic Cholesky factorisation are computed
+//! once and reused, and the values are gathered straight into the permuted matrix.
 
-use std::sync::Arc;
+use std::fmt;
+use std::sync::{Arc, Mutex, PoisonError};
 
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
 };
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
+use faer::sparse::linalg::{SupernodalThreshold, amd};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::{Conj, Par, Side};
 use rayon::prelude::*;
 
@@ -25,7 +27,7 @@ type Block = [f64; 36];
 
 /// Pairs of blended patches whose share of a vertex's data term is at most this
 /// (`alpha_a alpha_b`) are majorised too (see [`PatchSystem`]).
-const SMALL_PAIR: f64 = 1e-3;
+const SMALL_PAIR: f64 = 1e-2;
 
 /// The block pattern of the normal equations and its reusable symbolic factorisation.
 #[derive(Clone, Debug)]
@@ -56,11 +58,43 @@ pub struct PatchSystem {
     /// `alpha_k(v) + alpha_l(v)` never change, so the term's normal equations cost O(1) per
     /// pair instead of O(vertices).
     rigidity_pairs: Vec<(usize, usize, [u32; 3], [OffsetMoments; 3])>,
-    symbolic_matrix: SymbolicSparseColMat<usize>,
-    /// The factorisation's structure (fill-reducing order, supernodes), computed once.
+    /// The fill-reducing (AMD) order of the scalar unknowns: position `i` of the permuted
+    /// system holds unknown `permutation[i]`.
+    permutation: Vec<usize>,
+    /// The lower triangle of the permuted matrix (sorted rows), the triangle faer's
+    /// supernodal factorisation reads, so it neither permutes nor transposes it.
+    permuted_lower: SymbolicSparseColMat<usize>,
+    /// The factorisation's structure (supernodes) for the permuted matrix, computed once.
     symbolic: Arc<SymbolicCholesky<usize>>,
-    /// For each scalar entry of the CSC matrix, its block and position in the block.
+    /// For each scalar entry of `permuted_lower`, its block and position in the block.
     value_source: Vec<(u32, u8)>,
+    buffers: SolveBuffers,
+}
+
+/// The numeric factorisation's buffers, kept between solves so that they are allocated
+/// once. A clone starts with empty ones.
+#[derive(Default)]
+struct SolveBuffers(Mutex<SolveBufferSet>);
+
+#[derive(Default)]
+struct SolveBufferSet {
+    /// The permuted matrix's values, in `value_source` order.
+    values: Vec<f64>,
+    factor: Vec<f64>,
+    permuted_rhs: Vec<f64>,
+    scratch: Option<MemBuffer>,
+}
+
+impl Clone for SolveBuffers {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl fmt::Debug for SolveBuffers {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("SolveBuffers")
+    }
 }
 
 /// Problems of the linear solve.
@@ -152,30 +186,68 @@ impl PatchSystem {
                 )
             })
             .collect();
-        // The scalar pattern: upper triangle of the block pattern.
+        // The scalar pattern: upper triangle of the block pattern, column by column, each
+        // entry as (row, column, block, position in the block).
         let dim = 6 * n;
-        let mut col_ptr = Vec::with_capacity(dim + 1);
-        let mut row_idx = Vec::new();
-        let mut value_source = Vec::new();
-        col_ptr.push(0usize);
+        let mut entries = Vec::new();
         for l in 0..n {
             for b in 0..6 {
                 for (slot, &k) in column_rows[l].iter().enumerate() {
                     let block = (column_offset[l] + slot) as u32;
                     let rows = if k as usize == l { b + 1 } else { 6 };
                     for a in 0..rows {
-                        row_idx.push(6 * k as usize + a);
-                        value_source.push((block, (6 * a + b) as u8));
+                        entries.push((6 * k as usize + a, 6 * l + b, block, (6 * a + b) as u8));
                     }
                 }
-                col_ptr.push(row_idx.len());
             }
         }
-        let symbolic_matrix = SymbolicSparseColMat::new_checked(dim, dim, col_ptr, None, row_idx);
+        // Already in column order: the bucket sort only yields where each column starts.
+        let (col_ptr, entries) = bucket_sort(dim, &entries, |e| e.1);
+        let upper = SymbolicSparseColMat::new_checked(
+            dim,
+            dim,
+            col_ptr,
+            None,
+            entries.iter().map(|e| e.0).collect(),
+        );
+        let (permutation, new_index) = fill_reducing_order(upper.as_ref())?;
+        // Entry (r, c) moves to (new r, new c); the matrix is symmetric, so it keeps its value
+        // in whichever triangle it lands, and the lower one holds it as (max, min).
+        let permuted: Vec<(usize, usize, u32, u8)> = entries
+            .iter()
+            .map(|&(row, column, block, position)| {
+                let (i, j) = (new_index[row], new_index[column]);
+                (i.max(j), i.min(j), block, position)
+            })
+            .collect();
+        // Stable bucket sorts by row, then by column: columns with their rows in order.
+        let (_, permuted) = bucket_sort(dim, &permuted, |e| e.0);
+        let (col_ptr, permuted) = bucket_sort(dim, &permuted, |e| e.1);
+        let permuted_lower = SymbolicSparseColMat::new_checked(
+            dim,
+            dim,
+            col_ptr,
+            None,
+            permuted.iter().map(|e| e.0).collect(),
+        );
+        let value_source = permuted
+            .iter()
+            .map(|&(.., block, position)| (block, position))
+            .collect();
+        // The symbolic analysis reads the upper triangle: the same pattern transposed, whose
+        // rows come out in order as the lower triangle is read column by column.
+        let (col_ptr, transposed) = bucket_sort(dim, &permuted, |e| e.0);
+        let permuted_upper = SymbolicSparseColMat::new_checked(
+            dim,
+            dim,
+            col_ptr,
+            None,
+            transposed.iter().map(|e| e.1).collect(),
+        );
         let symbolic = factorize_symbolic_cholesky(
-            symbolic_matrix.as_ref(),
+            permuted_upper.as_ref(),
             Side::Upper,
-            SymmetricOrdering::Amd,
+            SymmetricOrdering::Identity,
             CholeskySymbolicParams {
                 supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
                 ..Default::default()
@@ -192,9 +264,11 @@ impl PatchSystem {
             pair_start,
             pairs,
             rigidity_pairs,
-            symbolic_matrix,
+            permutation,
+            permuted_lower,
             symbolic,
             value_source,
+            buffers: SolveBuffers::default(),
         })
     }
 
@@ -209,46 +283,115 @@ impl PatchSystem {
 
     /// Solves `H x = rhs` for the assembled blocks (upper triangle read).
     fn solve(&self, blocks: &[Block], rhs: &mut [f64]) -> Result<(), SolveError> {
-        let values: Vec<f64> = self
-            .value_source
-            .iter()
-            .map(|&(b, e)| blocks[b as usize][e as usize])
-            .collect();
-        let matrix = SparseColMatRef::new(self.symbolic_matrix.as_ref(), &values);
+        // The buffers hold nothing that outlives a solve, so a poisoned lock is still usable.
+        let mut buffers = self
+            .buffers
+            .0
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        let SolveBufferSet {
+            values,
+            factor,
+            permuted_rhs,
+            scratch,
+        } = &mut *buffers;
+        values.clear();
+        values.extend(
+            self.value_source
+                .iter()
+                .map(|&(b, e)| blocks[b as usize][e as usize]),
+        );
+        let matrix = SparseColMatRef::new(self.permuted_lower.as_ref(), values);
         // One thread: the system is small (six unknowns a patch), and handing its supernodes
         // to a thread pool costs more than it saves.
         let par = Par::Seq;
         let symbolic = &*self.symbolic;
-        let mut factor = vec![0.0; symbolic.len_val()];
-        let mut memory = MemBuffer::new(
-            symbolic
-                .factorize_numeric_llt_scratch::<f64>(par, Default::default())
-                .or(symbolic.solve_in_place_scratch::<f64>(1, par)),
-        );
-        let stack = MemStack::new(&mut memory);
+        // The factorisation overwrites every value, so the buffer is only sized once.
+        factor.resize(symbolic.len_val(), 0.0);
+        let scratch = scratch.get_or_insert_with(|| {
+            MemBuffer::new(
+                symbolic
+                    .factorize_numeric_llt_scratch::<f64>(par, Default::default())
+                    .or(symbolic.solve_in_place_scratch::<f64>(1, par)),
+            )
+        });
+        let stack = MemStack::new(scratch);
         let llt = symbolic
             .factorize_numeric_llt(
-                &mut factor,
+                factor,
                 matrix,
-                Side::Upper,
+                Side::Lower,
                 Default::default(),
                 par,
                 stack,
                 Default::default(),
             )
             .map_err(|_| SolveError::Factorisation)?;
+        permuted_rhs.clear();
+        permuted_rhs.extend(self.permutation.iter().map(|&old| rhs[old]));
         llt.solve_in_place_with_conj(
             Conj::No,
-            faer::MatMut::from_column_major_slice_mut(rhs, self.symbolic.nrows(), 1),
+            faer::MatMut::from_column_major_slice_mut(permuted_rhs, symbolic.nrows(), 1),
             par,
             stack,
         );
+        for (&old, &x) in self.permutation.iter().zip(permuted_rhs.iter()) {
+            rhs[old] = x;
+        }
         if rhs.iter().all(|x| x.is_finite()) {
             Ok(())
         } else {
             Err(SolveError::Factorisation)
         }
     }
+}
+
+/// `items` ordered by `key` (below `buckets`), keeping the order of equal keys (a counting
+/// sort), and where each key's run starts (`buckets + 1` offsets).
+fn bucket_sort<T: Copy>(
+    buckets: usize,
+    items: &[T],
+    key: impl Fn(&T) -> usize,
+) -> (Vec<usize>, Vec<T>) {
+    let mut start = vec![0usize; buckets + 1];
+    for item in items {
+        start[key(item) + 1] += 1;
+    }
+    for k in 0..buckets {
+        start[k + 1] += start[k];
+    }
+    let mut next = start.clone();
+    let mut order = vec![0usize; items.len()];
+    for (i, item) in items.iter().enumerate() {
+        let k = key(item);
+        order[next[k]] = i;
+        next[k] += 1;
+    }
+    (start, order.into_iter().map(|i| items[i]).collect())
+}
+
+/// The AMD order of a symmetric matrix given by its upper triangle, as faer's symbolic
+/// Cholesky computes it: `(forward, inverse)`, where position `i` holds unknown
+/// `forward[i]` and unknown `j` moves to `inverse[j]`.
+fn fill_reducing_order(
+    upper: SymbolicSparseColMatRef<'_, usize>,
+) -> Result<(Vec<usize>, Vec<usize>), SolveError> {
+    let dim = upper.ncols();
+    let mut forward = vec![0; dim];
+    let mut inverse = vec![0; dim];
+    let mut memory = MemBuffer::new(amd::order_maybe_unsorted_scratch::<usize>(
+        dim,
+        upper.compute_nnz(),
+    ));
+    amd::order_maybe_unsorted(
+        &mut forward,
+        &mut inverse,
+        upper,
+        CholeskySymbolicParams::default().amd_params,
+        MemStack::new(&mut memory),
+    )
+    .map_err(|_| SolveError::Factorisation)?;
+    Ok((forward, inverse))
 }
 
 /// `[q]x`, the cross-product matrix.
@@ -546,6 +689,8 @@ pub struct StepWeights {
     /// surface toward the centroid of its points without the mesh being dragged by the way
     /// points happen to fall around vertices.
     pub tangential: f64,
+    /// The step taken is this multiple of the Gauss-Newton step (1: the step itself).
+    pub relaxation: f64,
 }
 
 /// One vertex's data term: `weight * |x(v) - ybar_v|_P^2` with `P = n n^T + t (I - n n^T)`.
@@ -754,6 +899,9 @@ fn damp_solve_and_apply(
 
     let mut rhs: Vec<f64> = gradient.iter().map(|g| -g).collect();
     system.solve(blocks, &mut rhs)?;
+    for x in &mut rhs {
+        *x *= weights.relaxation;
+    }
     for k in 0..n {
         let w = Vector3::new(rhs[6 * k], rhs[6 * k + 1], rhs[6 * k + 2]);
         let dc = Vector3::new(rhs[6 * k + 3], rhs[6 * k + 4], rhs[6 * k + 5]);
@@ -1023,6 +1171,7 @@ mod tests {
                 rigidity,
                 damping: 1e-3,
                 tangential,
+                relaxation: 1.0,
             };
             let mut moment_pose = pose.clone();
             gauss_newton_step(
