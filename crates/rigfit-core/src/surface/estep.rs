@@ -789,14 +789,13 @@ mod tests {
     use crate::surface::model::PatchOptions;
     use rand::SeedableRng;
 
-    /// Within a frame, lists kept where the mesh barely moved and searched again where it
-    /// moved give the posteriors of searching every point afresh.
-    #[test]
-    fn kept_lists_match_fresh_searches() {
+    /// A torus's patch model and a scan of the torus bent (4,000 points, a tenth clutter),
+    /// with a `sigma` of 2% of the diagonal.
+    fn bent_torus_scan(seed: u64) -> (PatchModel, Observations, f64) {
         let reference = torus(40, 20);
         let model = PatchModel::new(&reference, &PatchOptions::default()).expect("model");
         let diagonal = model.diagonal;
-        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
         let truth = bend(&reference, 0.2);
         let cloud = scan(
             &truth,
@@ -807,7 +806,14 @@ mod tests {
             &mut rng,
         );
         let data = Observations::from_mesh(&cloud).expect("frame");
-        let sigma = 0.02 * diagonal;
+        (model, data, 0.02 * diagonal)
+    }
+
+    /// Within a frame, lists kept where the mesh barely moved and searched again where it
+    /// moved give the posteriors of searching every point afresh.
+    #[test]
+    fn kept_lists_match_fresh_searches() {
+        let (model, data, sigma) = bent_torus_scan(11);
         let options = DataTermOptions::default();
         let mut pose = model.rest_pose();
         let mut cache = EStepCache::default();
@@ -842,21 +848,8 @@ mod tests {
     /// E-step after it, keeping the thinned points' lists, gives a fresh one's posteriors.
     #[test]
     fn thinned_e_steps_count_every_point_and_hand_their_lists_on() {
-        let reference = torus(40, 20);
-        let model = PatchModel::new(&reference, &PatchOptions::default()).expect("model");
-        let diagonal = model.diagonal;
-        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
-        let truth = bend(&reference, 0.2);
-        let cloud = scan(
-            &truth,
-            &reference.triangles,
-            4000,
-            0.003 * diagonal,
-            0.1,
-            &mut rng,
-        );
-        let data = Observations::from_mesh(&cloud).expect("frame");
-        let (sigma, options) = (0.02 * diagonal, DataTermOptions::default());
+        let (model, data, sigma) = bent_torus_scan(5);
+        let options = DataTermOptions::default();
         let pose = model.rest_pose();
         let positions = model.positions(&pose);
         let fresh = e_step(&model, &pose, &positions, &data, sigma, &options);
