@@ -685,8 +685,10 @@ pub fn e_step_predicted(
     (0..active.div_ceil(POSTERIOR_CHUNK))
         .into_par_iter()
         .fold(empty, |mut sums, c| {
-            // Per point: the best vertex of each patch found, `(patch, vertex, d2)`.
+            // Per point: the best vertex of each patch found, `(patch, vertex, d2)`, and then
+            // its squared distance to the deformed vertex and its likelihood.
             let mut found = [(0u32, 0u32, 0.0f64); MAX_SLOTS];
+            let mut likelihood = [(0.0f64, 0.0f64); MAX_SLOTS];
             for a in c * POSTERIOR_CHUNK..((c + 1) * POSTERIOR_CHUNK).min(active) {
                 let r = a * stride;
                 let i = cache.order[r] as usize;
@@ -736,19 +738,18 @@ pub fn e_step_predicted(
                 if n_found == 0 {
                     continue;
                 }
-                let found = &mut found[..n_found];
+                let found = &found[..n_found];
                 // Eq. 8: prior times Gaussian (eq. 7), over the sum with the outlier term; the
-                // component is centred on the deformed vertex. The likelihood replaces the
-                // distance from here on.
+                // component is centred on the deformed vertex.
                 let mut total = outlier_density;
-                for f in found.iter_mut() {
-                    let d2 = (y - positions[f.1 as usize]).norm_squared();
-                    let p = patch_prior[f.0 as usize] * gauss_norm * (-d2 / two_sigma2).exp();
+                for (&(k, v, _), l) in found.iter().zip(&mut likelihood) {
+                    let d2 = (y - positions[v as usize]).norm_squared();
+                    let p = patch_prior[k as usize] * gauss_norm * (-d2 / two_sigma2).exp();
                     total += p;
-                    f.2 = p;
+                    *l = (d2, p);
                 }
                 let (square, mut inlier_mass) = (y.coords.norm_squared(), 0.0);
-                for &(_, v, p) in found.iter() {
+                for (&(_, v, _), &(d2, p)) in found.iter().zip(&likelihood) {
                     let w = p / total;
                     if w > 1e-8 {
                         inlier_mass += w;
@@ -757,7 +758,7 @@ pub fn e_step_predicted(
                         sums.weight[v] += w;
                         sums.weighted_sum[v] += y.coords * w;
                         sums.weighted_square[v] += w * square;
-                        sums.weighted_residual += w * (y - positions[v]).norm_squared();
+                        sums.weighted_residual += w * d2;
                     }
                 }
                 if inlier_mass > 0.5 {

@@ -201,15 +201,8 @@ impl PatchSystem {
                 }
             }
         }
-        // Already in column order: the bucket sort only yields where each column starts.
-        let (col_ptr, entries) = bucket_sort(dim, &entries, |e| e.1);
-        let upper = SymbolicSparseColMat::new_checked(
-            dim,
-            dim,
-            col_ptr,
-            None,
-            entries.iter().map(|e| e.0).collect(),
-        );
+        // Already in column order: the sort only yields where each column starts.
+        let (upper, entries) = column_pattern(dim, &entries, |e| e.0, |e| e.1);
         let (permutation, new_index) = fill_reducing_order(upper.as_ref())?;
         // Entry (r, c) moves to (new r, new c); the matrix is symmetric, so it keeps its value
         // in whichever triangle it lands, and the lower one holds it as (max, min).
@@ -220,30 +213,16 @@ impl PatchSystem {
                 (i.max(j), i.min(j), block, position)
             })
             .collect();
-        // Stable bucket sorts by row, then by column: columns with their rows in order.
+        // Stable sorts by row, then by column: columns with their rows in order.
         let (_, permuted) = bucket_sort(dim, &permuted, |e| e.0);
-        let (col_ptr, permuted) = bucket_sort(dim, &permuted, |e| e.1);
-        let permuted_lower = SymbolicSparseColMat::new_checked(
-            dim,
-            dim,
-            col_ptr,
-            None,
-            permuted.iter().map(|e| e.0).collect(),
-        );
+        let (permuted_lower, permuted) = column_pattern(dim, &permuted, |e| e.0, |e| e.1);
         let value_source = permuted
             .iter()
             .map(|&(.., block, position)| (block, position))
             .collect();
         // The symbolic analysis reads the upper triangle: the same pattern transposed, whose
         // rows come out in order as the lower triangle is read column by column.
-        let (col_ptr, transposed) = bucket_sort(dim, &permuted, |e| e.0);
-        let permuted_upper = SymbolicSparseColMat::new_checked(
-            dim,
-            dim,
-            col_ptr,
-            None,
-            transposed.iter().map(|e| e.1).collect(),
-        );
+        let (permuted_upper, _) = column_pattern(dim, &permuted, |e| e.1, |e| e.0);
         let symbolic = factorize_symbolic_cholesky(
             permuted_upper.as_ref(),
             Side::Upper,
@@ -368,6 +347,20 @@ fn bucket_sort<T: Copy>(
         next[k] += 1;
     }
     (start, order.into_iter().map(|i| items[i]).collect())
+}
+
+/// The `dim` x `dim` pattern of `entries` given each one's row and column, and the entries
+/// column by column in that pattern's order (within a column, in the order given).
+fn column_pattern<T: Copy>(
+    dim: usize,
+    entries: &[T],
+    row: impl Fn(&T) -> usize,
+    column: impl Fn(&T) -> usize,
+) -> (SymbolicSparseColMat<usize>, Vec<T>) {
+    let (col_ptr, sorted) = bucket_sort(dim, entries, column);
+    let rows = sorted.iter().map(row).collect();
+    let pattern = SymbolicSparseColMat::new_checked(dim, dim, col_ptr, None, rows);
+    (pattern, sorted)
 }
 
 /// The AMD order of a symmetric matrix given by its upper triangle, as faer's symbolic
