@@ -28,10 +28,15 @@ export async function listCharacters() {
   return (await (await check(await fetch('/api/characters'))).json()).characters;
 }
 
-/** Uploads a .glb / .gltf / .bvh file (a File or Blob with a name); the new CHARACTER. */
+/**
+ * Uploads a .glb / .gltf / .bvh file (a File or Blob with a name); the new CHARACTER. The
+ * server takes uploads only as `application/octet-stream` (or a glTF type): a browser's own
+ * type for the file may be empty or `text/plain`, which the server refuses.
+ */
 export async function uploadCharacter(file) {
   const url = `/api/characters?name=${encodeURIComponent(file.name)}`;
-  return (await check(await fetch(url, { method: 'POST', body: file }))).json();
+  const headers = { 'Content-Type': 'application/octet-stream' };
+  return (await check(await fetch(url, { method: 'POST', headers, body: file }))).json();
 }
 
 /** The GLB the page displays for a character. */

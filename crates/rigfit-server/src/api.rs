@@ -5,8 +5,10 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+use crate::interrupt_compat::{Interrupt, solve_pose_interruptible};
 use axum::Json;
 use axum::body::{Body, Bytes};
 use axum::extract::rejection::QueryRejection;
@@ -15,7 +17,7 @@ use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use http_body_util::{BodyExt, LengthLimitError, Limited};
 use rigfit_core::JointDof;
-use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem, solve_pose};
+use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem};
 use rigfit_formats::ParseError;
 use rigfit_formats::json::parse_json;
 use rigfit_formats::report::pose_report;
@@ -24,9 +26,10 @@ use rigfit_formats::strokes::strokes_from_json;
 use serde_json::{Value, json};
 
 use crate::AppState;
-use crate::characters::{Character, MAX_CHARACTERS, read_upload};
+use crate::characters::{Character, MAX_CHARACTERS, StoreFull, read_upload};
 use crate::error::ApiError;
-use crate::request;
+use crate::guard::{JSON_TYPES, UPLOAD_TYPES, require_content_type};
+use crate::request::{self, Limits};
 
 /// The largest upload (a rig file).
 pub const UPLOAD_LIMIT: usize = 64 << 20;
@@ -35,54 +38,94 @@ pub const REQUEST_LIMIT: usize = 4 << 20;
 /// The last frame an export may key (about 14 minutes at 24 frames per second), so a BVH's
 /// frame count stays in proportion to the request.
 pub const MAX_EXPORT_FRAME: u64 = 20_000;
+/// The most keys one export request may hold.
+pub const MAX_EXPORT_KEYS: usize = 1_000;
 
-/// Reads a request body of at most `limit` bytes: 413 when the declared or actual length is
-/// over it (checked before reading when the length is declared).
-async fn read_body(request: Request, limit: usize) -> Result<Bytes, ApiError> {
-    let too_large = || {
-        ApiError::new(
-            StatusCode::PAYLOAD_TOO_LARGE,
-            format!(
-                "request body too large (the limit is {} MiB for this request)",
-                limit >> 20
-            ),
-        )
-    };
-    let declared = request
+/// The length a request declares (`Content-Length`), if any.
+fn declared_length(request: &Request) -> Option<u64> {
+    request
         .headers()
         .get(header::CONTENT_LENGTH)
         .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.parse::<u64>().ok());
-    if declared.is_some_and(|n| n > limit as u64) {
-        return Err(too_large());
+        .and_then(|v| v.parse::<u64>().ok())
+}
+
+/// 413 when the request declares a body over `limit` bytes.
+fn check_declared_length(request: &Request, limit: usize) -> Result<(), ApiError> {
+    if declared_length(request).is_some_and(|n| n > limit as u64) {
+        return Err(too_large(limit));
     }
-    match Limited::new(request.into_body(), limit).collect().await {
-        Ok(collected) => Ok(collected.to_bytes()),
-        Err(e) if e.downcast_ref::<LengthLimitError>().is_some() => Err(too_large()),
-        Err(e) => Err(ApiError::bad_request(format!(
+    Ok(())
+}
+
+fn too_large(limit: usize) -> ApiError {
+    ApiError::new(
+        StatusCode::PAYLOAD_TOO_LARGE,
+        format!(
+            "request body too large (the limit is {} MiB for this request)",
+            limit >> 20
+        ),
+    )
+}
+
+/// Reads a request body of at most `limit` bytes within the server's body timeout: 413 when
+/// the declared or actual length is over it (checked before reading when the length is
+/// declared), 408 when the body does not arrive in time.
+async fn read_body(state: &AppState, request: Request, limit: usize) -> Result<Bytes, ApiError> {
+    check_declared_length(&request, limit)?;
+    let timeout = state.config().body_timeout;
+    let collect = Limited::new(request.into_body(), limit).collect();
+    match tokio::time::timeout(timeout, collect).await {
+        Err(_) => Err(ApiError::new(
+            StatusCode::REQUEST_TIMEOUT,
+            format!(
+                "the request body did not arrive within {} s",
+                timeout.as_secs_f64()
+            ),
+        )),
+        Ok(Ok(collected)) => Ok(collected.to_bytes()),
+        Ok(Err(e)) if e.downcast_ref::<LengthLimitError>().is_some() => Err(too_large(limit)),
+        Ok(Err(e)) => Err(ApiError::bad_request(format!(
             "could not read the request body: {e}"
         ))),
     }
 }
 
 /// Runs `job` on the blocking pool once a worker slot is free (one per core, so solves queue
-/// instead of all slowing down); a panic in it becomes a 500.
+/// instead of all slowing down); a panic in it becomes a 500. The slot is held by the job
+/// itself: when the request is dropped (its client gone), the slot frees only once the job
+/// has stopped, so `AppState::busy_workers` counts what really runs.
 async fn run_blocking<T: Send + 'static>(
     state: &AppState,
     job: impl FnOnce() -> T + Send + 'static,
 ) -> Result<T, ApiError> {
-    let _slot = state
-        .workers
-        .acquire()
+    let slot = Arc::clone(&state.workers)
+        .acquire_owned()
         .await
         .map_err(|_| ApiError::internal("the server is shutting down"))?;
-    tokio::task::spawn_blocking(job).await.map_err(|e| {
+    tokio::task::spawn_blocking(move || {
+        let _slot = slot;
+        job()
+    })
+    .await
+    .map_err(|e| {
         if e.is_panic() {
             crate::error::panic_error(e.into_panic().as_ref())
         } else {
             ApiError::internal("the job was cancelled")
         }
     })
+}
+
+/// Sets its flag when dropped: a request whose future is dropped before it finished (the
+/// client closed the connection, or the server is shutting down) cancels its solve.
+#[derive(Debug)]
+struct CancelOnDrop(Arc<AtomicBool>);
+
+impl Drop for CancelOnDrop {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
 }
 
 /// The character with this id, or 404.
@@ -165,18 +208,41 @@ pub async fn upload_character(
         skin: query.get("skin").cloned(),
         start_frame,
     };
-    if state.characters.list().len() >= MAX_CHARACTERS {
-        return Err(store_full());
-    }
-    let bytes = read_body(request, UPLOAD_LIMIT).await?;
+    require_content_type(request.headers(), "upload", UPLOAD_TYPES)?;
+    check_declared_length(&request, UPLOAD_LIMIT)?;
+    // The upload's share of the memory budget is held while it is read and parsed: its
+    // declared length (or the upload limit) times what the reader may take per byte.
+    let factor = crate::memory::parse_factor(format);
+    let declared = declared_length(&request).map_or(UPLOAD_LIMIT, |n| {
+        usize::try_from(n).unwrap_or(usize::MAX).min(UPLOAD_LIMIT)
+    });
+    let reading = state
+        .characters
+        .reserve(if declared_length(&request).is_some() {
+            declared.saturating_mul(factor)
+        } else {
+            declared
+        })
+        .map_err(store_full)?;
+    let bytes = read_body(&state, request, UPLOAD_LIMIT).await?;
+    drop(reading);
+    let parsing = state
+        .characters
+        .reserve(bytes.len().saturating_mul(factor))
+        .map_err(store_full)?;
     let parse_name = file_name.clone();
     let (_, rig_file) = run_blocking(&state, move || read_upload(&bytes, &parse_name, &options))
         .await?
         .map_err(|e| ApiError::from_format(&e))?;
+    let size = crate::memory::rig_file_bytes(&rig_file);
     let added = state
         .characters
-        .add(|id| Character::new(id, &file_name, format, rig_file))
-        .map_err(|_| store_full())?;
+        .add_within_budget(
+            parsing,
+            |id| Character::new(id, &file_name, format, rig_file),
+            size,
+        )
+        .map_err(store_full)?;
     let mut response = (StatusCode::CREATED, Json(added.to_json())).into_response();
     if let Ok(location) = HeaderValue::from_str(&format!("/api/characters/{}", added.id)) {
         response.headers_mut().insert(header::LOCATION, location);
@@ -184,13 +250,31 @@ pub async fn upload_character(
     Ok(response)
 }
 
-fn store_full() -> ApiError {
-    ApiError::new(
-        StatusCode::CONFLICT,
-        format!(
-            "the server holds {MAX_CHARACTERS} characters, the most it keeps: delete one first (DELETE /api/characters/ID)"
+/// 409 when the store holds its most characters, 507 when the upload does not fit in the
+/// memory budget.
+fn store_full(why: StoreFull) -> ApiError {
+    const MIB: usize = 1 << 20;
+    match why {
+        StoreFull::Count => ApiError::new(
+            StatusCode::CONFLICT,
+            format!(
+                "the server holds {MAX_CHARACTERS} characters, the most it keeps: delete one first (DELETE /api/characters/ID)"
+            ),
         ),
-    )
+        StoreFull::Memory {
+            needed,
+            used,
+            budget,
+        } => ApiError::new(
+            StatusCode::INSUFFICIENT_STORAGE,
+            format!(
+                "the upload needs about {} MiB of memory and the server's characters may take {} MiB ({} MiB in use): delete a character first (DELETE /api/characters/ID)",
+                needed.div_ceil(MIB),
+                budget / MIB,
+                used.div_ceil(MIB)
+            ),
+        ),
+    }
 }
 
 /// `GET /api/characters/{id}/model.glb`: the GLB the page shows.
@@ -221,25 +305,43 @@ fn bad_body(what: &str, e: &ParseError) -> ApiError {
     ApiError::bad_request(format!("{what}: {e}"))
 }
 
-/// `POST /api/characters/{id}/solve`: poses the character from strokes.
+/// `POST /api/characters/{id}/solve`: poses the character from strokes. The solve stops
+/// when the client goes (the request is dropped) or at the server's solve timeout (503).
 pub async fn solve(
     State(state): State<AppState>,
     UrlPath(id): UrlPath<String>,
     request: Request,
 ) -> Result<Json<Value>, ApiError> {
+    require_content_type(request.headers(), "solve request", JSON_TYPES)?;
     let found = character(&state, &id)?;
-    let body = read_body(request, REQUEST_LIMIT).await?;
-    run_blocking(&state, move || solve_request(&found, &body))
-        .await?
-        .map(Json)
+    let body = read_body(&state, request, REQUEST_LIMIT).await?;
+    let cancelled = Arc::new(AtomicBool::new(false));
+    let _cancel_on_drop = CancelOnDrop(Arc::clone(&cancelled));
+    let timeout = state.config().solve_timeout;
+    run_blocking(&state, move || {
+        // The deadline runs from when the solve starts (not while it queues).
+        let interrupt = Interrupt::never()
+            .with_flag(cancelled)
+            .with_deadline(Instant::now() + timeout);
+        solve_request(&found, &body, &interrupt, timeout)
+    })
+    .await?
+    .map(Json)
 }
 
-/// Parses and solves one solve request (on the blocking pool).
-fn solve_request(character: &Character, body: &[u8]) -> Result<Value, ApiError> {
+/// Parses and solves one solve request (on the blocking pool) until `interrupt`.
+fn solve_request(
+    character: &Character,
+    body: &[u8],
+    interrupt: &Interrupt,
+    timeout: std::time::Duration,
+) -> Result<Value, ApiError> {
     const WHAT: &str = "solve request";
     let rig = &character.rig_file.rig;
+    let limits = Limits::for_rig(rig);
     let doc = parse_json(body).map_err(|e| bad_body(WHAT, &e))?;
     let obj = request::object(&doc).map_err(|e| bad_body(WHAT, &e))?;
+    request::check_strokes(&doc, &limits).map_err(|e| bad_body(WHAT, &e))?;
     // An empty list is well-formed: the solver refuses it (422), as it does in the CLI.
     let strokes = match obj.get("strokes") {
         Some(Value::Array(list)) if list.is_empty() => Vec::new(),
@@ -247,12 +349,11 @@ fn solve_request(character: &Character, body: &[u8]) -> Result<Value, ApiError> 
     };
     let start = match request::optional(obj, "pose") {
         None => rig.pose.clone(),
-        Some(p) => {
-            request::pose("pose", p, &rig.skeleton, &rig.pose).map_err(|e| bad_body(WHAT, &e))?
-        }
+        Some(p) => request::pose("pose", p, &rig.skeleton, &rig.pose, &limits)
+            .map_err(|e| bad_body(WHAT, &e))?,
     };
     let movable = request::optional(obj, "bones")
-        .map(|b| request::names("bones", b))
+        .map(|b| request::names("bones", b, &limits))
         .transpose()
         .map_err(|e| bad_body(WHAT, &e))?;
     let options = match request::optional(obj, "method") {
@@ -292,7 +393,15 @@ fn solve_request(character: &Character, body: &[u8]) -> Result<Value, ApiError> 
         height: rig.height(),
     };
     let t0 = Instant::now();
-    let result = solve_pose(&problem, &options).map_err(|e| match e {
+    let result = solve_pose_interruptible(&problem, &options, interrupt).map_err(|e| match e {
+        // Stopped: at the deadline (a cancelled request has nobody to answer).
+        _ if interrupt.is_set() => ApiError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            format!(
+                "{WHAT}: the solve took longer than {} s, the server's limit (send fewer or shorter strokes)",
+                timeout.as_secs_f64()
+            ),
+        ),
         // As the command line: problems of the rig name the rig's file.
         PoseError::UnknownBone { .. } | PoseError::NoBones | PoseError::NothingMoves => {
             ApiError::unprocessable(format!("{}: {e}", character.rig_file.path.display()))
@@ -375,8 +484,9 @@ pub async fn export(
     UrlPath(id): UrlPath<String>,
     request: Request,
 ) -> Result<Response, ApiError> {
+    require_content_type(request.headers(), "export request", JSON_TYPES)?;
     let found = character(&state, &id)?;
-    let body = read_body(request, REQUEST_LIMIT).await?;
+    let body = read_body(&state, request, REQUEST_LIMIT).await?;
     let (bytes, format, file_name) =
         run_blocking(&state, move || export_request(&found, &body)).await??;
     let content_type = match format {
@@ -413,6 +523,7 @@ fn export_request(
     const WHAT: &str = "export request";
     let rig = &character.rig_file.rig;
     let bad = |e: ParseError| bad_body(WHAT, &e);
+    let limits = Limits::for_rig(rig);
     let doc = parse_json(body).map_err(bad)?;
     let obj = request::object(&doc).map_err(bad)?;
     let format = match request::optional(obj, "format") {
@@ -430,7 +541,7 @@ fn export_request(
         .unwrap_or(rigfit_formats::gltf::FRAMES_PER_SECOND);
     let pose = match request::optional(obj, "pose") {
         None => rig.pose.clone(),
-        Some(p) => request::pose("pose", p, &rig.skeleton, &rig.pose).map_err(bad)?,
+        Some(p) => request::pose("pose", p, &rig.skeleton, &rig.pose, &limits).map_err(bad)?,
     };
     let mut keys: Vec<(usize, rigfit_core::Pose)> = Vec::new();
     if let Some(list) = request::optional(obj, "keys") {
@@ -438,6 +549,15 @@ fn export_request(
             .as_array()
             .ok_or_else(|| ParseError::new("keys", "expected a list of keys"))
             .map_err(bad)?;
+        if list.len() > MAX_EXPORT_KEYS {
+            return Err(bad(ParseError::new(
+                "keys",
+                format!(
+                    "{} keys: an export may hold at most {MAX_EXPORT_KEYS}",
+                    list.len()
+                ),
+            )));
+        }
         for (i, key) in list.iter().enumerate() {
             let here = format!("keys[{i}]");
             let fields = key
@@ -462,8 +582,14 @@ fn export_request(
             }
             let key_pose = match request::optional(fields, "pose") {
                 None => pose.clone(),
-                Some(p) => request::pose(&format!("{here}.pose"), p, &rig.skeleton, &rig.pose)
-                    .map_err(bad)?,
+                Some(p) => request::pose(
+                    &format!("{here}.pose"),
+                    p,
+                    &rig.skeleton,
+                    &rig.pose,
+                    &limits,
+                )
+                .map_err(bad)?,
             };
             keys.push((frame as usize, key_pose));
         }

@@ -28,6 +28,55 @@ pub fn embedded_paths() -> Vec<String> {
     WebFiles::iter().map(|p| p.into_owned()).collect()
 }
 
+/// The `sha256-...` source of every inline `<script>` of `html` (the page's import map), for
+/// the Content-Security-Policy.
+fn inline_script_hashes(html: &str) -> Vec<String> {
+    use base64::Engine as _;
+    use sha2::Digest as _;
+    let mut hashes = Vec::new();
+    let mut rest = html;
+    while let Some(start) = rest.find("<script") {
+        let tag_and_after = &rest[start..];
+        let Some(tag_end) = tag_and_after.find('>') else {
+            break;
+        };
+        let tag = &tag_and_after[..tag_end];
+        let after = &tag_and_after[tag_end + 1..];
+        let Some(close) = after.find("</script>") else {
+            break;
+        };
+        if !tag.contains("src=") {
+            let digest = sha2::Sha256::digest(after[..close].as_bytes());
+            let encoded = base64::engine::general_purpose::STANDARD.encode(digest);
+            hashes.push(format!("'sha256-{encoded}'"));
+        }
+        rest = &after[close..];
+    }
+    hashes
+}
+
+/// The Content-Security-Policy every answer carries: the page's scripts, styles, models and
+/// requests come from the server itself only (its inline import map allowed by hash; data:
+/// and blob: URLs for the models three.js unpacks); no plug-ins, no `<base>`, no form
+/// posts, no framing by any page.
+pub fn content_security_policy() -> &'static str {
+    static POLICY: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    POLICY.get_or_init(|| {
+        let hashes = WebFiles::get("index.html")
+            .map(|f| inline_script_hashes(&String::from_utf8_lossy(&f.data)))
+            .unwrap_or_default();
+        format!(
+            "default-src 'self'; script-src 'self'{}; style-src 'self'; img-src 'self' data: blob:; \
+             connect-src 'self' data: blob:; worker-src 'self' blob:; object-src 'none'; \
+             base-uri 'none'; form-action 'none'; frame-ancestors 'none'",
+            hashes
+                .iter()
+                .map(|h| format!(" {h}"))
+                .collect::<String>()
+        )
+    })
+}
+
 /// The `Content-Type` of a file by its extension.
 pub fn content_type(path: &str) -> &'static str {
     let ext = path.rsplit_once('.').map_or("", |(_, e)| e);
@@ -118,7 +167,6 @@ pub async fn static_file(method: Method, uri: Uri) -> Response {
         [
             (header::CONTENT_TYPE, content_type(&key)),
             (header::CACHE_CONTROL, "no-cache"),
-            (header::X_CONTENT_TYPE_OPTIONS, "nosniff"),
         ],
         body,
     )
@@ -158,6 +206,22 @@ mod tests {
             );
         }
         assert_eq!(embedded_key("/app/%2e%2e/x"), None);
+    }
+
+    #[test]
+    fn the_policy_allows_the_import_map_by_hash() {
+        let html =
+            "<script type=\"importmap\">{}</script><script type=\"module\" src=\"/a.js\"></script>";
+        // echo -n '{}' | openssl dgst -sha256 -binary | base64
+        assert_eq!(
+            inline_script_hashes(html),
+            ["'sha256-RBNvo1WzZ4oRRq0W9+hknpT7T8If536DEMBg9hyq/4o='"]
+        );
+        let policy = content_security_policy();
+        assert!(policy.contains("frame-ancestors 'none'"), "{policy}");
+        if WebFiles::get("index.html").is_some() {
+            assert!(policy.contains("'sha256-"), "{policy}");
+        }
     }
 
     #[test]

@@ -118,18 +118,67 @@ pub fn read_upload(
 
 /// Why a character could not be added.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct StoreFull;
+pub enum StoreFull {
+    /// The store holds [`MAX_CHARACTERS`] characters.
+    Count,
+    /// The character (or the upload being read) would take the store past its memory
+    /// budget: `needed` bytes more while `used` of `budget` are taken.
+    Memory {
+        needed: usize,
+        used: usize,
+        budget: usize,
+    },
+}
 
-/// The characters, shared by every request.
-#[derive(Debug, Default)]
+/// The characters, shared by every request, within a count and a memory budget.
+#[derive(Debug)]
 pub struct CharacterStore {
     inner: RwLock<StoreInner>,
+    budget: usize,
+}
+
+impl Default for CharacterStore {
+    fn default() -> Self {
+        Self::with_budget(crate::DEFAULT_MEMORY_BUDGET)
+    }
 }
 
 #[derive(Debug, Default)]
 struct StoreInner {
-    characters: Vec<Arc<Character>>,
+    /// Each character with its estimated size in bytes.
+    characters: Vec<(Arc<Character>, usize)>,
     next_id: usize,
+    /// The bytes of the stored characters.
+    stored_bytes: usize,
+    /// The bytes reserved by uploads being read.
+    reserved_bytes: usize,
+}
+
+impl StoreInner {
+    fn used(&self) -> usize {
+        self.stored_bytes + self.reserved_bytes
+    }
+}
+
+/// Memory of the budget held for an upload being read; given back when dropped.
+#[derive(Debug)]
+pub struct Reservation<'a> {
+    store: &'a CharacterStore,
+    bytes: usize,
+}
+
+impl Drop for Reservation<'_> {
+    fn drop(&mut self) {
+        let mut inner = self.store.write();
+        inner.reserved_bytes = inner.reserved_bytes.saturating_sub(self.bytes);
+    }
+}
+
+impl Reservation<'_> {
+    /// The bytes held.
+    pub fn bytes(&self) -> usize {
+        self.bytes
+    }
 }
 
 impl CharacterStore {
@@ -137,37 +186,189 @@ impl CharacterStore {
         Self::default()
     }
 
-    /// Adds a character made by `make` from its new id; refuses when the store is full.
-    pub fn add(&self, make: impl FnOnce(String) -> Character) -> Result<Arc<Character>, StoreFull> {
-        // A panic elsewhere while the lock was held leaves the list itself consistent.
-        let mut inner = self.inner.write().unwrap_or_else(PoisonError::into_inner);
+    /// An empty store whose characters may take `budget` bytes.
+    pub fn with_budget(budget: usize) -> Self {
+        Self {
+            inner: RwLock::new(StoreInner::default()),
+            budget,
+        }
+    }
+
+    // A panic elsewhere while the lock was held leaves the list itself consistent.
+    fn write(&self) -> std::sync::RwLockWriteGuard<'_, StoreInner> {
+        self.inner.write().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    fn read(&self) -> std::sync::RwLockReadGuard<'_, StoreInner> {
+        self.inner.read().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// The memory budget, in bytes.
+    pub fn budget(&self) -> usize {
+        self.budget
+    }
+
+    /// The estimated bytes of the stored characters (reservations not counted).
+    pub fn stored_bytes(&self) -> usize {
+        self.read().stored_bytes
+    }
+
+    /// Holds `bytes` of the budget for an upload being read; refused when the stored
+    /// characters and the other uploads leave less, or when the store is full by count.
+    pub fn reserve(&self, bytes: usize) -> Result<Reservation<'_>, StoreFull> {
+        let mut inner = self.write();
         if inner.characters.len() >= MAX_CHARACTERS {
-            return Err(StoreFull);
+            return Err(StoreFull::Count);
+        }
+        if inner.used().saturating_add(bytes) > self.budget {
+            return Err(StoreFull::Memory {
+                needed: bytes,
+                used: inner.used(),
+                budget: self.budget,
+            });
+        }
+        inner.reserved_bytes += bytes;
+        Ok(Reservation { store: self, bytes })
+    }
+
+    /// Adds a character made by `make` from its new id, taking `bytes` of the budget;
+    /// refuses when the store is full by count (the budget is not checked: see
+    /// [`Self::add_within_budget`]).
+    pub fn add(
+        &self,
+        make: impl FnOnce(String) -> Character,
+        bytes: usize,
+    ) -> Result<Arc<Character>, StoreFull> {
+        self.insert(make, bytes, None)
+    }
+
+    /// As [`Self::add`], for an upload read under `reservation` (given back): refused when
+    /// `bytes` does not fit in the budget beside the stored characters and the other
+    /// uploads' reservations.
+    pub fn add_within_budget(
+        &self,
+        reservation: Reservation<'_>,
+        make: impl FnOnce(String) -> Character,
+        bytes: usize,
+    ) -> Result<Arc<Character>, StoreFull> {
+        let held = reservation.bytes;
+        let result = self.insert(make, bytes, Some(held));
+        drop(reservation);
+        result
+    }
+
+    fn insert(
+        &self,
+        make: impl FnOnce(String) -> Character,
+        bytes: usize,
+        reserved: Option<usize>,
+    ) -> Result<Arc<Character>, StoreFull> {
+        let mut inner = self.write();
+        if inner.characters.len() >= MAX_CHARACTERS {
+            return Err(StoreFull::Count);
+        }
+        if let Some(held) = reserved {
+            let others = inner.used().saturating_sub(held);
+            if others.saturating_add(bytes) > self.budget {
+                return Err(StoreFull::Memory {
+                    needed: bytes,
+                    used: others,
+                    budget: self.budget,
+                });
+            }
         }
         let id = format!("c{}", inner.next_id);
         inner.next_id += 1;
         let character = Arc::new(make(id));
-        inner.characters.push(Arc::clone(&character));
+        inner.characters.push((Arc::clone(&character), bytes));
+        inner.stored_bytes += bytes;
         Ok(character)
     }
 
     /// The character with this id.
     pub fn get(&self, id: &str) -> Option<Arc<Character>> {
-        let inner = self.inner.read().unwrap_or_else(PoisonError::into_inner);
-        inner.characters.iter().find(|c| c.id == id).cloned()
+        self.read()
+            .characters
+            .iter()
+            .find(|(c, _)| c.id == id)
+            .map(|(c, _)| Arc::clone(c))
     }
 
     /// Every character, in the order they were added.
     pub fn list(&self) -> Vec<Arc<Character>> {
-        let inner = self.inner.read().unwrap_or_else(PoisonError::into_inner);
-        inner.characters.clone()
+        self.read()
+            .characters
+            .iter()
+            .map(|(c, _)| Arc::clone(c))
+            .collect()
     }
 
-    /// Removes a character; false when there was none with this id. Ids are not reused.
+    /// How many characters the store holds.
+    pub fn len(&self) -> usize {
+        self.read().characters.len()
+    }
+
+    /// True when the store holds no character.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Removes a character and gives back its share of the budget (its memory is freed
+    /// once no request uses it any more); false when there was none with this id. Ids are
+    /// not reused.
     pub fn remove(&self, id: &str) -> bool {
-        let mut inner = self.inner.write().unwrap_or_else(PoisonError::into_inner);
-        let before = inner.characters.len();
-        inner.characters.retain(|c| c.id != id);
-        inner.characters.len() != before
+        let mut inner = self.write();
+        let Some(k) = inner.characters.iter().position(|(c, _)| c.id == id) else {
+            return false;
+        };
+        let (_, bytes) = inner.characters.remove(k);
+        inner.stored_bytes = inner.stored_bytes.saturating_sub(bytes);
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tiny(id: String) -> Character {
+        let rig_file = crate::humanoid_rig_file().expect("humanoid");
+        Character::new(id, Path::new("tiny.glb"), RigFormat::Glb, rig_file)
+    }
+
+    #[test]
+    fn the_budget_counts_stored_characters_and_reservations() {
+        let store = CharacterStore::with_budget(1000);
+        let a = store.add(tiny, 400).expect("fits");
+        let held = store.reserve(500).expect("400 + 500 fit");
+        assert!(matches!(
+            store.reserve(200),
+            Err(StoreFull::Memory {
+                needed: 200,
+                used: 900,
+                budget: 1000
+            })
+        ));
+        // The upload turned out bigger than it reserved, but fits beside the others.
+        let b = store
+            .add_within_budget(held, tiny, 600)
+            .expect("400 + 600 fit");
+        assert_eq!(store.stored_bytes(), 1000);
+        assert!(store.reserve(1).is_err());
+        assert!(store.remove(&a.id));
+        assert_eq!(store.stored_bytes(), 600);
+        let held = store.reserve(300).expect("room again");
+        assert!(matches!(
+            store.add_within_budget(held, tiny, 500),
+            Err(StoreFull::Memory { .. })
+        ));
+        assert_eq!(
+            store.stored_bytes(),
+            600,
+            "a refused character takes nothing"
+        );
+        assert!(store.remove(&b.id));
+        assert_eq!(store.stored_bytes(), 0);
+        assert!(store.reserve(1000).is_ok());
     }
 }

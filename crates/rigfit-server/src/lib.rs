@@ -8,18 +8,20 @@
 pub mod api;
 pub mod assets;
 pub mod characters;
+pub mod connections;
 pub mod error;
+pub mod guard;
+mod interrupt_compat;
+pub mod memory;
 pub mod request;
 
 use std::future::Future;
 use std::path::Path;
 use std::sync::Arc;
+use std::time::Duration;
 
 use axum::Router;
-use axum::extract::{Request, State};
-use axum::http::{StatusCode, header};
-use axum::middleware::{self, Next};
-use axum::response::{IntoResponse, Response};
+use axum::middleware;
 use axum::routing::get;
 use rigfit_formats::FormatError;
 use rigfit_formats::rig_file::{RigFile, RigFormat, RigOptions, parse_rig};
@@ -29,7 +31,8 @@ use tower_http::catch_panic::CatchPanicLayer;
 pub use characters::{Character, CharacterStore, MAX_CHARACTERS};
 pub use error::ApiError;
 
-/// How the server runs.
+/// How the server runs: who it answers, how much work it takes on, and when it gives up
+/// (docs/serve-api.md, "Limits and timeouts").
 #[derive(Debug, Clone)]
 pub struct ServerConfig {
     /// Answer only requests addressed to this machine by a loopback name (`Host:` localhost,
@@ -38,40 +41,86 @@ pub struct ServerConfig {
     pub loopback_only: bool,
     /// How many reads, solves and writes run at once (the rest queue).
     pub workers: usize,
+    /// The longest a solve may run; past it the solve stops and the request gets 503.
+    pub solve_timeout: Duration,
+    /// The longest a connection may take to send a request's head (the request line and
+    /// headers), counted from the end of the previous answer on a kept-alive connection.
+    pub header_timeout: Duration,
+    /// The longest a request's body may take to arrive (408 past it).
+    pub body_timeout: Duration,
+    /// The longest the server waits for a client to read an answer before closing.
+    pub send_timeout: Duration,
+    /// The most connections open at once; more wait to be accepted.
+    pub max_connections: usize,
+    /// The memory the characters may take, in bytes (estimated; see `memory`): an upload
+    /// past it is refused (507) until characters are deleted.
+    pub memory_budget: usize,
+    /// On shutdown, how long requests under way may take to finish before their
+    /// connections are closed and their solves cancelled.
+    pub shutdown_grace: Duration,
 }
+
+/// The default memory budget of the characters: 1 GiB.
+pub const DEFAULT_MEMORY_BUDGET: usize = 1 << 30;
 
 impl Default for ServerConfig {
     fn default() -> Self {
         Self {
             loopback_only: true,
             workers: std::thread::available_parallelism().map_or(2, usize::from),
+            solve_timeout: Duration::from_secs(30),
+            header_timeout: Duration::from_secs(10),
+            body_timeout: Duration::from_secs(60),
+            send_timeout: Duration::from_secs(30),
+            max_connections: connections::default_max_connections(),
+            memory_budget: DEFAULT_MEMORY_BUDGET,
+            shutdown_grace: Duration::from_secs(3),
         }
     }
 }
 
-/// What every request shares: the characters and the worker slots.
+/// What every request shares: the characters, the worker slots and the configuration.
 #[derive(Debug, Clone)]
 pub struct AppState {
     pub characters: Arc<CharacterStore>,
     workers: Arc<Semaphore>,
+    worker_count: usize,
     loopback_only: bool,
+    config: Arc<ServerConfig>,
 }
 
 impl AppState {
     /// A server state holding no character yet.
     pub fn new(config: &ServerConfig) -> Self {
+        let worker_count = config.workers.max(1);
         Self {
-            characters: Arc::new(CharacterStore::new()),
-            workers: Arc::new(Semaphore::new(config.workers.max(1))),
+            characters: Arc::new(CharacterStore::with_budget(config.memory_budget)),
+            workers: Arc::new(Semaphore::new(worker_count)),
+            worker_count,
             loopback_only: config.loopback_only,
+            config: Arc::new(config.clone()),
         }
     }
 
-    /// Adds a character read from a file (`path` gives its name and format).
+    /// The configuration the server runs with.
+    pub fn config(&self) -> &ServerConfig {
+        &self.config
+    }
+
+    /// How many jobs (reads, solves, writes) are running on the blocking pool now. A job
+    /// whose request was cancelled counts until it has actually stopped.
+    pub fn busy_workers(&self) -> usize {
+        self.worker_count
+            .saturating_sub(self.workers.available_permits())
+    }
+
+    /// Adds a character read from a file (`path` gives its name and format); it counts
+    /// against the memory budget but is not refused by it.
     pub fn add_rig_file(&self, path: &Path, rig_file: RigFile) -> Option<Arc<Character>> {
         let format = RigFormat::from_path(path).unwrap_or(RigFormat::Glb);
+        let bytes = memory::rig_file_bytes(&rig_file);
         self.characters
-            .add(|id| Character::new(id, path, format, rig_file))
+            .add(|id| Character::new(id, path, format, rig_file), bytes)
             .ok()
     }
 
@@ -95,7 +144,8 @@ pub fn humanoid_rig_file() -> Result<RigFile, FormatError> {
 }
 
 /// The whole app: the API routes, the page's files, and the layers that keep every answer
-/// in shape (JSON errors, panics caught, the loopback check).
+/// in shape (JSON errors, panics caught, the security headers) and refuse other callers
+/// (the `Host` and `Origin` checks).
 pub fn router(state: AppState) -> Router {
     let api = Router::new()
         .route(
@@ -117,93 +167,27 @@ pub fn router(state: AppState) -> Router {
         )
         .fallback(assets::static_file)
         .with_state(state.clone());
-    guarded(api).layer(middleware::from_fn_with_state(state, loopback_hosts_only))
+    guarded(api.layer(middleware::from_fn_with_state(state, guard::callers)))
 }
 
 /// `router` wrapped in the layers every answer goes through: a handler that panics answers
-/// 500 (the server goes on), and every error answer is `{"error": ...}`.
+/// 500 (the server goes on), every error answer is `{"error": ...}`, and every answer
+/// carries the security headers (`guard::security_headers`).
 pub fn guarded(router: Router) -> Router {
     router
         .layer(CatchPanicLayer::custom(error::panic_response))
         .layer(middleware::map_response(error::json_error_bodies))
+        .layer(middleware::map_response(guard::security_headers))
 }
 
-/// True for a `Host` header naming this machine by a loopback name.
-fn is_loopback_host(host: &str) -> bool {
-    // Strip the port: "[::1]:8717", "127.0.0.1:8717", "localhost:8717".
-    let name = if let Some(rest) = host.strip_prefix('[') {
-        rest.split(']').next().unwrap_or("")
-    } else {
-        host.rsplit_once(':').map_or(host, |(name, _)| name)
-    };
-    let name = name.trim_end_matches('.').to_ascii_lowercase();
-    name == "localhost"
-        || name.ends_with(".localhost")
-        || name
-            .parse::<std::net::IpAddr>()
-            .is_ok_and(|ip| ip.is_loopback())
-}
-
-/// Middleware: when the server listens on loopback only, a request whose `Host` names
-/// another machine gets 403 (a DNS-rebinding page cannot drive the server).
-async fn loopback_hosts_only(
-    State(state): State<AppState>,
-    request: Request,
-    next: Next,
-) -> Response {
-    if state.loopback_only {
-        if let Some(host) = request.headers().get(header::HOST) {
-            let host = host.to_str().unwrap_or("");
-            if !is_loopback_host(host) {
-                return ApiError::new(
-                    StatusCode::FORBIDDEN,
-                    format!(
-                        "Host '{host}': this server answers only to localhost (start it with --host to serve other names)"
-                    ),
-                )
-                .into_response();
-            }
-        }
-    }
-    next.run(request).await
-}
-
-/// Serves the app on `listener` until `shutdown` completes, then finishes the requests under
-/// way and returns.
+/// Serves the app on `listener` until `shutdown` completes, then stops within the
+/// configuration's `shutdown_grace`: the port closes at once, requests under way may finish
+/// until then, and solves still running are cancelled (`connections`).
 pub async fn serve(
     listener: tokio::net::TcpListener,
     state: AppState,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
-    axum::serve(listener, router(state))
-        .with_graceful_shutdown(shutdown)
-        .await
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn loopback_host_names() {
-        for host in [
-            "localhost",
-            "localhost:8717",
-            "127.0.0.1:8717",
-            "127.1.2.3",
-            "[::1]:80",
-            "app.localhost:1",
-        ] {
-            assert!(is_loopback_host(host), "{host}");
-        }
-        for host in [
-            "evil.example:8717",
-            "10.0.0.1",
-            "0.0.0.0:8717",
-            "",
-            "[::]:1",
-        ] {
-            assert!(!is_loopback_host(host), "{host}");
-        }
-    }
+    let config = state.config().clone();
+    connections::run(listener, router(state), &config, shutdown).await
 }

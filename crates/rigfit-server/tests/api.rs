@@ -712,6 +712,7 @@ async fn oversized_bodies_are_413() {
         ("/api/characters/c0/export", 4 << 20),
     ] {
         let request = Request::post(uri)
+            .header(header::CONTENT_TYPE, common::content_type_for(uri))
             .header(header::CONTENT_LENGTH, limit + 1)
             .body(Body::from("{}"))
             .expect("request");
@@ -727,6 +728,7 @@ async fn oversized_bodies_are_413() {
         ("/api/characters/c0/solve", 4 << 20),
     ] {
         let request = Request::post(uri)
+            .header(header::CONTENT_TYPE, common::content_type_for(uri))
             .body(Body::from(Bytes::from(vec![b' '; limit + 1])))
             .expect("request");
         assert!(request.headers().get(header::CONTENT_LENGTH).is_none());

@@ -1,11 +1,13 @@
 //! `rigfit serve [RIG] [--port P] [--host H]`: the sketching page in a browser. Loads RIG
 //! (or the built-in humanoid) as character `c0`, listens on 127.0.0.1 unless `--host` says
 //! otherwise, prints `rigfit serve: http://HOST:PORT/` as its first line and serves until
-//! Ctrl-C or SIGTERM.
+//! Ctrl-C or SIGTERM, then exits within a few seconds (requests under way get the server's
+//! shutdown grace, solves still running are cancelled, the blocking pool is not waited for).
 
 use std::io::Write as _;
 use std::net::SocketAddr;
 use std::path::PathBuf;
+use std::time::Duration;
 
 use anyhow::{Context, anyhow};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
@@ -32,7 +34,17 @@ pub struct ServeArgs {
     /// BVH: the frame RIG starts from (a number, or `rest` for all channels zero).
     #[arg(long)]
     pub start_frame: Option<String>,
+    /// The memory the loaded characters may take, in MiB (uploads past it are refused).
+    #[arg(long, default_value_t = rigfit_server::DEFAULT_MEMORY_BUDGET >> 20)]
+    pub memory_budget: usize,
+    /// The longest one solve may run, in seconds.
+    #[arg(long, default_value_t = 30.0)]
+    pub solve_timeout: f64,
 }
+
+/// How long the runtime waits, once the server has stopped, for blocking jobs (solves
+/// being cancelled) before the process exits anyway.
+const BLOCKING_JOBS_GRACE: Duration = Duration::from_millis(500);
 
 pub fn run(args: &ServeArgs) -> anyhow::Result<()> {
     // Everything that can be wrong with the arguments is found before listening.
@@ -46,16 +58,35 @@ pub fn run(args: &ServeArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
+    let solve_timeout = Duration::try_from_secs_f64(args.solve_timeout)
+        .ok()
+        .filter(|d| !d.is_zero())
+        .ok_or_else(|| {
+            anyhow!(
+                "--solve-timeout {}: expected a positive number of seconds",
+                args.solve_timeout
+            )
+        })?;
+    if args.memory_budget == 0 {
+        return Err(anyhow!(
+            "--memory-budget 0: expected a positive number of MiB"
+        ));
+    }
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
         .context("starting the server's runtime")?;
-    runtime.block_on(serve(args, first))
+    let result = runtime.block_on(serve(args, first, solve_timeout));
+    // Dropping the runtime would wait for every blocking job; cancelled solves stop within
+    // moments, and nothing else is worth waiting for.
+    runtime.shutdown_timeout(BLOCKING_JOBS_GRACE);
+    result
 }
 
 async fn serve(
     args: &ServeArgs,
     first: Option<(PathBuf, rigfit_formats::rig_file::RigFile)>,
+    solve_timeout: Duration,
 ) -> anyhow::Result<()> {
     let addresses: Vec<SocketAddr> = tokio::net::lookup_host((args.host.as_str(), args.port))
         .await
@@ -68,6 +99,8 @@ async fn serve(
     let loopback_only = address.ip().is_loopback();
     let state = AppState::new(&ServerConfig {
         loopback_only,
+        memory_budget: args.memory_budget.saturating_mul(1 << 20),
+        solve_timeout,
         ..ServerConfig::default()
     });
     match first {

@@ -34,7 +34,8 @@ fn invalid(what: impl Into<String>) -> io::Error {
 pub fn request(addr: SocketAddr, method: &str, path: &str, body: &[u8]) -> io::Result<HttpAnswer> {
     let mut stream = connect(addr)?;
     let head = format!(
-        "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Length: {}\r\n\r\n",
+        "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Type: {}\r\nContent-Length: {}\r\n\r\n",
+        super::content_type_for(path),
         body.len()
     );
     stream.write_all(head.as_bytes())?;
@@ -55,7 +56,8 @@ pub fn request_declaring(
     let stream = connect(addr)?;
     let mut writer = stream.try_clone()?;
     let head = format!(
-        "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Length: {declared_length}\r\nExpect: 100-continue\r\n\r\n"
+        "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Type: {}\r\nContent-Length: {declared_length}\r\nExpect: 100-continue\r\n\r\n",
+        super::content_type_for(path)
     );
     writer.write_all(head.as_bytes())?;
     let mut reader = BufReader::new(stream);

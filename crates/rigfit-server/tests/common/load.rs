@@ -19,54 +19,76 @@ use super::{case_from_animation, pose_json};
 /// `c0`; stopped (gracefully) when dropped.
 pub struct RunningServer {
     pub addr: SocketAddr,
+    /// The server's state (its characters, its busy workers).
+    pub state: AppState,
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     thread: Option<std::thread::JoinHandle<()>>,
 }
 
 impl RunningServer {
     pub fn start() -> Self {
+        Self::start_with(ServerConfig::default())
+    }
+
+    /// A server with this configuration.
+    pub fn start_with(config: ServerConfig) -> Self {
         let (addr_tx, addr_rx) = std::sync::mpsc::channel();
         let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+        let state = AppState::new(&config);
+        state.add_humanoid().expect("humanoid");
+        let served = state.clone();
         let thread = std::thread::spawn(move || {
             let runtime = tokio::runtime::Builder::new_multi_thread()
                 .enable_all()
                 .build()
                 .expect("runtime");
             runtime.block_on(async move {
-                let state = AppState::new(&ServerConfig::default());
-                state.add_humanoid().expect("humanoid");
                 let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
                     .await
                     .expect("binds a loopback port");
                 addr_tx
                     .send(listener.local_addr().expect("address"))
                     .expect("the test waits for the address");
-                rigfit_server::serve(listener, state, async {
+                rigfit_server::serve(listener, served, async {
                     let _ = stop_rx.await;
                 })
                 .await
                 .expect("serves");
             });
+            // Blocking jobs still running (cancelled solves) are not waited for.
+            runtime.shutdown_timeout(Duration::from_millis(500));
         });
         let addr = addr_rx
             .recv_timeout(Duration::from_secs(30))
             .expect("the server starts");
         Self {
             addr,
+            state,
             stop: Some(stop_tx),
             thread: Some(thread),
         }
     }
-}
 
-impl Drop for RunningServer {
-    fn drop(&mut self) {
+    /// Stops the server; how long `serve` took to return.
+    pub fn stop(mut self) -> Duration {
+        let t0 = Instant::now();
+        self.shut_down();
+        t0.elapsed()
+    }
+
+    fn shut_down(&mut self) {
         if let Some(stop) = self.stop.take() {
             let _ = stop.send(());
         }
         if let Some(thread) = self.thread.take() {
             let _ = thread.join();
         }
+    }
+}
+
+impl Drop for RunningServer {
+    fn drop(&mut self) {
+        self.shut_down();
     }
 }
 

@@ -114,8 +114,20 @@ pub async fn get(router: &Router, uri: &str) -> Answer {
     send(router, request).await
 }
 
+/// The `Content-Type` the page sends to `uri`: bytes for an upload, JSON otherwise.
+pub fn content_type_for(uri: &str) -> &'static str {
+    if uri.starts_with("/api/characters?") {
+        "application/octet-stream"
+    } else {
+        "application/json"
+    }
+}
+
 pub async fn post(router: &Router, uri: &str, body: impl Into<Body>) -> Answer {
-    let request = Request::post(uri).body(body.into()).expect("request");
+    let request = Request::post(uri)
+        .header("content-type", content_type_for(uri))
+        .body(body.into())
+        .expect("request");
     send(router, request).await
 }
 
