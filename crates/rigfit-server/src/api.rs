@@ -91,6 +91,14 @@ async fn read_body(state: &AppState, request: Request, limit: usize) -> Result<B
     }
 }
 
+/// Reads a refused request's body to its end without keeping it (at most the upload limit,
+/// within the body timeout).
+async fn discard_body(state: &AppState, request: Request) {
+    let mut body = Limited::new(request.into_body(), UPLOAD_LIMIT);
+    let drain = async { while let Some(Ok(_)) = body.frame().await {} };
+    let _ = tokio::time::timeout(state.config().body_timeout, drain).await;
+}
+
 /// Runs `job` on the blocking pool once a worker slot is free (one per core, so solves queue
 /// instead of all slowing down); a panic in it becomes a 500. The slot is held by the job
 /// itself: when the request is dropped (its client gone), the slot frees only once the job
@@ -136,7 +144,8 @@ fn character(state: &AppState, id: &str) -> Result<Arc<Character>, ApiError> {
         .ok_or_else(|| ApiError::not_found(format!("{id}: no such character")))
 }
 
-/// `GET /api/characters`: every character.
+/// `GET /api/characters`: every character, and the memory they take (estimated) of the
+/// server's budget.
 pub async fn list_characters(State(state): State<AppState>) -> Json<Value> {
     let characters: Vec<Value> = state
         .characters
@@ -144,7 +153,11 @@ pub async fn list_characters(State(state): State<AppState>) -> Json<Value> {
         .iter()
         .map(|c| c.to_json())
         .collect();
-    Json(json!({ "characters": characters }))
+    let store = &state.characters;
+    Json(json!({
+        "characters": characters,
+        "memory": { "bytes": store.stored_bytes(), "budget": store.budget() },
+    }))
 }
 
 /// `GET /api/characters/{id}`.
@@ -216,14 +229,21 @@ pub async fn upload_character(
     let declared = declared_length(&request).map_or(UPLOAD_LIMIT, |n| {
         usize::try_from(n).unwrap_or(usize::MAX).min(UPLOAD_LIMIT)
     });
-    let reading = state
+    let reading = match state
         .characters
         .reserve(if declared_length(&request).is_some() {
             declared.saturating_mul(factor)
         } else {
             declared
-        })
-        .map_err(store_full)?;
+        }) {
+        Ok(reading) => reading,
+        Err(why) => {
+            // Read (and drop) the body first, so that a browser sees the answer rather than
+            // a connection closed while it sends.
+            discard_body(&state, request).await;
+            return Err(store_full(why));
+        }
+    };
     let bytes = read_body(&state, request, UPLOAD_LIMIT).await?;
     drop(reading);
     let parsing = state

@@ -1,8 +1,9 @@
 //! The connection loop of [`crate::serve`]: hyper's HTTP/1 server on each accepted
 //! connection, with the bounds a local server needs to shed work (docs/serve-api.md,
 //! "Limits and timeouts"):
-//! - at most `max_connections` connections at once (below the process's file limit); past
-//!   it, new connections wait in the kernel's queue until one closes;
+//! - at most `max_connections` connections at once (below the process's file limit); at
+//!   the cap, a new connection makes the connections with no request under way close (idle
+//!   keep-alive connections, partial request heads), else it waits for one to end;
 //! - a header timeout: a connection that does not send a whole request head in time (idle
 //!   keep-alive connections included) is closed;
 //! - a send timeout: a connection whose client stops reading the answer is closed;
@@ -17,18 +18,21 @@ use std::future::Future;
 use std::io;
 use std::pin::{Pin, pin};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::task::{Context, Poll, ready};
 use std::time::Duration;
 
 use axum::Router;
+use hyper::body::Incoming;
 use hyper::server::conn::http1;
 use hyper_util::rt::{TokioIo, TokioTimer};
 use hyper_util::service::TowerToHyperService;
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 use tokio::net::{TcpListener, TcpStream};
-use tokio::sync::{OwnedSemaphorePermit, Semaphore, watch};
+use tokio::sync::{Notify, OwnedSemaphorePermit, Semaphore, watch};
 use tokio::task::JoinSet;
 use tokio::time::{Instant, Sleep};
+use tower::ServiceExt as _;
 
 use crate::ServerConfig;
 
@@ -41,17 +45,11 @@ pub(crate) async fn run(
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> io::Result<()> {
     let slots = Arc::new(Semaphore::new(config.max_connections.max(1)));
+    let pressure = Arc::new(Notify::new());
     let (closing_tx, closing_rx) = watch::channel(false);
     let mut connections = JoinSet::new();
     let mut shutdown = pin!(shutdown);
     loop {
-        let slot = tokio::select! {
-            () = shutdown.as_mut() => break,
-            slot = Arc::clone(&slots).acquire_owned() => match slot {
-                Ok(slot) => slot,
-                Err(_) => break,
-            },
-        };
         let stream = tokio::select! {
             () = shutdown.as_mut() => break,
             accepted = listener.accept() => match accepted {
@@ -65,6 +63,13 @@ pub(crate) async fn run(
                 }
             },
         };
+        let slot = tokio::select! {
+            () = shutdown.as_mut() => break,
+            slot = free_slot(&slots, &pressure) => match slot {
+                Some(slot) => slot,
+                None => break,
+            },
+        };
         while connections.try_join_next().is_some() {}
         // Small answers go out at once (no Nagle delay).
         let _ = stream.set_nodelay(true);
@@ -73,6 +78,7 @@ pub(crate) async fn run(
             app.clone(),
             config.clone(),
             closing_rx.clone(),
+            Arc::clone(&pressure),
             slot,
         ));
     }
@@ -95,31 +101,88 @@ pub(crate) async fn run(
     Ok(())
 }
 
+/// A connection slot for a connection just accepted. At the cap, the connections with no
+/// request under way (idle keep-alive connections, partial request heads) are asked to close,
+/// every 100 ms until a slot frees; connections whose requests are under way keep theirs (a
+/// partial body ends at the body timeout).
+async fn free_slot(slots: &Arc<Semaphore>, pressure: &Notify) -> Option<OwnedSemaphorePermit> {
+    loop {
+        if let Ok(slot) = Arc::clone(slots).try_acquire_owned() {
+            return Some(slot);
+        }
+        pressure.notify_waiters();
+        let wait = Arc::clone(slots).acquire_owned();
+        match tokio::time::timeout(Duration::from_millis(100), wait).await {
+            Ok(slot) => return slot.ok(),
+            Err(_) => continue,
+        }
+    }
+}
+
+/// Counts a connection's requests under way (from the head read to the answer made).
+#[derive(Debug)]
+struct InFlight(Arc<AtomicUsize>);
+
+impl InFlight {
+    fn enter(count: &Arc<AtomicUsize>) -> Self {
+        count.fetch_add(1, Ordering::Relaxed);
+        Self(Arc::clone(count))
+    }
+}
+
+impl Drop for InFlight {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
 /// One connection: hyper's HTTP/1 server with the header timeout, until it closes, times
-/// out, or the server shuts down (then it finishes the request under way, if any).
+/// out, is asked to make room while it has no request under way, or the server shuts down
+/// (then it finishes the request under way, if any).
 async fn connection(
     stream: TcpStream,
     app: Router,
     config: ServerConfig,
     mut closing: watch::Receiver<bool>,
+    pressure: Arc<Notify>,
     _slot: OwnedSemaphorePermit,
 ) {
+    let in_flight = Arc::new(AtomicUsize::new(0));
+    let counted = Arc::clone(&in_flight);
+    let service = tower::service_fn(move |request: axum::extract::Request<Incoming>| {
+        let entered = InFlight::enter(&counted);
+        let app = app.clone();
+        async move {
+            let response = app.oneshot(request).await;
+            drop(entered);
+            response
+        }
+    });
     let io = TokioIo::new(Guarded::new(stream, config.send_timeout));
     let mut builder = http1::Builder::new();
     builder
         .timer(TokioTimer::new())
         .header_read_timeout(config.header_timeout)
         .keep_alive(true);
-    let mut conn = pin!(builder.serve_connection(io, TowerToHyperService::new(app)));
+    let mut conn = pin!(builder.serve_connection(io, TowerToHyperService::new(service)));
     let closed = async move {
         // The watch's guard must not live across an await: only whether it fired is kept.
         let _ = closing.wait_for(|closing| *closing).await.is_ok();
     };
-    let result = tokio::select! {
-        result = conn.as_mut() => result,
-        () = closed => {
-            conn.as_mut().graceful_shutdown();
-            conn.await
+    let mut closed = pin!(closed);
+    let result = loop {
+        tokio::select! {
+            result = conn.as_mut() => break result,
+            () = closed.as_mut() => {
+                conn.as_mut().graceful_shutdown();
+                break conn.await;
+            }
+            () = pressure.notified() => {
+                if in_flight.load(Ordering::Relaxed) == 0 {
+                    tracing::debug!("closing a connection with no request under way: at the cap");
+                    return;
+                }
+            }
         }
     };
     if let Err(e) = result {

@@ -39,9 +39,46 @@ pub fn request(addr: SocketAddr, method: &str, path: &str, body: &[u8]) -> io::R
         body.len()
     );
     stream.write_all(head.as_bytes())?;
-    stream.write_all(body)?;
-    stream.flush()?;
+    // A server may answer (413, 507) before it has read the whole body and close: the
+    // answer is read all the same.
+    let _ = stream.write_all(body).and_then(|()| stream.flush());
     read_answer(&mut BufReader::new(stream))
+}
+
+/// Sends `bytes` as they are (a whole request, or a malformed one) and reads the answer.
+pub fn raw(addr: SocketAddr, bytes: &[u8]) -> io::Result<HttpAnswer> {
+    let mut stream = connect(addr)?;
+    let _ = stream.write_all(bytes).and_then(|()| stream.flush());
+    read_answer(&mut BufReader::new(stream))
+}
+
+/// Sends `method path` with `body` and the given extra header lines (`Name: value`, no
+/// `Content-Type` unless given there) and reads the answer.
+pub fn request_with(
+    addr: SocketAddr,
+    method: &str,
+    path: &str,
+    headers: &[&str],
+    body: &[u8],
+) -> io::Result<HttpAnswer> {
+    let mut head = format!("{method} {path} HTTP/1.1\r\n");
+    if !headers
+        .iter()
+        .any(|h| h.to_ascii_lowercase().starts_with("host:"))
+    {
+        head.push_str(&format!("Host: {addr}\r\n"));
+    }
+    for h in headers {
+        head.push_str(h);
+        head.push_str("\r\n");
+    }
+    head.push_str(&format!(
+        "Connection: close\r\nContent-Length: {}\r\n\r\n",
+        body.len()
+    ));
+    let mut bytes = head.into_bytes();
+    bytes.extend_from_slice(body);
+    raw(addr, &bytes)
 }
 
 /// Declares a body of `declared_length` bytes with `Expect: 100-continue` and sends nothing
@@ -77,7 +114,7 @@ pub fn request_declaring(
     read_answer(&mut reader)
 }
 
-fn connect(addr: SocketAddr) -> io::Result<TcpStream> {
+pub fn connect(addr: SocketAddr) -> io::Result<TcpStream> {
     let stream = TcpStream::connect_timeout(&addr, Duration::from_secs(10))?;
     stream.set_read_timeout(Some(Duration::from_secs(120)))?;
     stream.set_write_timeout(Some(Duration::from_secs(120)))?;
