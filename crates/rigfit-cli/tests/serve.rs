@@ -1,5 +1,7 @@
 //! `rigfit serve` as a process: it prints its address as the first line, answers on it, and
-//! stops cleanly on SIGTERM; a bad RIG is one line and exit status 2 before listening.
+//! stops cleanly on SIGTERM (within 5 s, solves under way or not); its resident memory stays
+//! within the memory budget however many uploads come; a bad RIG is one line and exit status
+//! 2 before listening.
 
 mod common;
 
@@ -56,6 +58,48 @@ fn http_get(addr: SocketAddr, path: &str) -> (u16, String) {
         .split_once("\r\n\r\n")
         .map_or(String::new(), |(_, b)| b.to_string());
     (status, body)
+}
+
+/// `POST path` with a `Content-Type` and body over a fresh connection; the status code and
+/// body. A server may answer before it has read the whole body: the answer is read anyway.
+fn http_post(addr: SocketAddr, path: &str, content_type: &str, body: &[u8]) -> (u16, String) {
+    let mut stream = TcpStream::connect_timeout(&addr, Duration::from_secs(10)).expect("connects");
+    stream
+        .set_read_timeout(Some(Duration::from_secs(120)))
+        .expect("timeout");
+    let head = format!(
+        "POST {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\n\r\n",
+        body.len()
+    );
+    let _ = stream
+        .write_all(head.as_bytes())
+        .and_then(|()| stream.write_all(body));
+    let mut answer = Vec::new();
+    let _ = stream.read_to_end(&mut answer);
+    let answer = String::from_utf8_lossy(&answer).into_owned();
+    let status = answer
+        .split_whitespace()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    let body = answer
+        .split_once("\r\n\r\n")
+        .map_or(String::new(), |(_, b)| b.to_string());
+    (status, body)
+}
+
+/// A process's resident memory and its peak (`VmRSS`, `VmHWM`), in bytes.
+fn resident_memory(pid: u32) -> (u64, u64) {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).expect("/proc status");
+    let field = |name: &str| {
+        status
+            .lines()
+            .find(|l| l.starts_with(name))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|kb| kb.parse::<u64>().ok())
+            .map_or(0, |kb| kb * 1024)
+    };
+    (field("VmRSS:"), field("VmHWM:"))
 }
 
 /// Sends SIGTERM and waits for the exit status (killed outright after 30 s).
@@ -126,4 +170,148 @@ fn serve_with_a_bad_rig_is_one_line_and_exit_2() {
     assert_bad_input(&o, &bad);
     let o = rigfit(&["serve", "notes.txt", "--port", "0"]);
     assert_bad_input(&o, std::path::Path::new("notes.txt"));
+}
+
+/// Solves that run for seconds on BCN_Epileptic: 200 strokes of varied lengths.
+fn heavy_solve(seed: usize) -> String {
+    let strokes: Vec<String> = (0..200)
+        .map(|s| {
+            let a = s as f64 * 0.61 + seed as f64 * 0.1;
+            let length = 0.3 + 0.07 * ((s * 7) % 10) as f64;
+            let points: Vec<String> = (0..50)
+                .map(|k| {
+                    let t = length * k as f64 / 50.0;
+                    format!(
+                        "[{}, {}, {}]",
+                        0.3 * a.cos() * t,
+                        -0.9 + 1.5 * t,
+                        0.2 * a.sin() * t
+                    )
+                })
+                .collect();
+            format!("{{\"points\": [{}]}}", points.join(", "))
+        })
+        .collect();
+    format!("{{\"strokes\": [{}]}}", strokes.join(", "))
+}
+
+#[test]
+fn sigterm_with_solves_under_way_exits_within_5_s() {
+    let (child, addr, _) = start(&[]);
+    let bcn = std::fs::read(data("assimp/BCN_Epileptic.glb")).expect("asset");
+    let (status, body) = http_post(
+        addr,
+        "/api/characters?name=BCN_Epileptic.glb",
+        "application/octet-stream",
+        &bcn,
+    );
+    assert_eq!(status, 201, "{body}");
+    // Three solves (more than the workers of a small machine), their clients waiting.
+    let clients: Vec<TcpStream> = (0..3)
+        .map(|i| {
+            let body = heavy_solve(i);
+            let mut stream =
+                TcpStream::connect_timeout(&addr, Duration::from_secs(10)).expect("connects");
+            write!(
+                stream,
+                "POST /api/characters/c1/solve HTTP/1.1\r\nHost: {addr}\r\nContent-Type: application/json\r\nContent-Length: {}\r\n\r\n{body}",
+                body.len()
+            )
+            .expect("sent");
+            stream
+        })
+        .collect();
+    std::thread::sleep(Duration::from_millis(1000));
+    let t0 = Instant::now();
+    let code = terminate(child);
+    let took = t0.elapsed();
+    println!("SIGTERM with 3 solves under way: exited in {took:?} with {code:?}");
+    assert_eq!(code, Some(0));
+    assert!(took < Duration::from_secs(5), "{took:?}");
+    drop(clients);
+}
+
+/// A BVH of one moving joint with `frames` frames (about 18 bytes a frame).
+fn long_bvh(frames: usize) -> Vec<u8> {
+    let mut text = String::from(
+        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n End Site\n {\n  OFFSET 0 1 0\n }\n}\nMOTION\n",
+    );
+    text.push_str(&format!("Frames: {frames}\nFrame Time: 0.0083333\n"));
+    text.push_str(&"0.1 0.2 0.3 0 0 0\n".repeat(frames));
+    text.into_bytes()
+}
+
+#[test]
+fn resident_memory_stays_within_the_budget_however_many_uploads() {
+    const MIB: u64 = 1 << 20;
+    let budget_mib = 256;
+    let (child, addr, _) = start(&["--memory-budget", &budget_mib.to_string()]);
+    let pid = child.id();
+    let (base, _) = resident_memory(pid);
+    let bvh = long_bvh(460_000); // 8 MiB
+    let upload = || {
+        http_post(
+            addr,
+            "/api/characters?name=long.bvh",
+            "application/octet-stream",
+            &bvh,
+        )
+    };
+    let mut stored = Vec::new();
+    let mut refused = 0;
+    for _ in 0..8 {
+        let (status, body) = upload();
+        match status {
+            201 => stored.push(body),
+            507 => refused += 1,
+            _ => panic!("{status}: {body}"),
+        }
+    }
+    let (rss, peak) = resident_memory(pid);
+    println!(
+        "8 uploads of {:.1} MiB with a {budget_mib} MiB budget: {} stored, {refused} refused (507); resident {} MiB, peak {} MiB (at start {} MiB)",
+        bvh.len() as f64 / MIB as f64,
+        stored.len(),
+        rss / MIB,
+        peak / MIB,
+        base / MIB
+    );
+    assert!(!stored.is_empty() && refused > 0);
+    let limit = budget_mib * MIB + base + 64 * MIB;
+    assert!(peak < limit, "peak {} MiB", peak / MIB);
+    // Deleting frees the budget; the memory is reused by the next uploads.
+    let ids: Vec<String> = stored
+        .iter()
+        .filter_map(|b| {
+            b.split("\"id\":\"")
+                .nth(1)
+                .and_then(|r| r.split('"').next())
+                .map(str::to_string)
+        })
+        .collect();
+    for id in &ids {
+        let mut stream =
+            TcpStream::connect_timeout(&addr, Duration::from_secs(10)).expect("connects");
+        write!(
+            stream,
+            "DELETE /api/characters/{id} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
+        )
+        .expect("sent");
+        let mut answer = String::new();
+        stream.read_to_string(&mut answer).expect("answer");
+        assert!(answer.starts_with("HTTP/1.1 204"), "{answer}");
+    }
+    let (after_delete, _) = resident_memory(pid);
+    let again = (0..8).filter(|_| upload().0 == 201).count();
+    let (rss, peak) = resident_memory(pid);
+    println!(
+        "after deleting {}: resident {} MiB; 8 more uploads: {again} stored, resident {} MiB, peak {} MiB",
+        ids.len(),
+        after_delete / MIB,
+        rss / MIB,
+        peak / MIB
+    );
+    assert_eq!(again, stored.len());
+    assert!(peak < limit, "peak {} MiB", peak / MIB);
+    assert_eq!(terminate(child), Some(0));
 }
