@@ -9,6 +9,7 @@ pub mod engine;
 pub mod geometry;
 pub mod hierarchy;
 pub mod humanoid;
+pub mod interrupt;
 pub mod kinematics;
 pub mod math;
 pub mod pose;
@@ -21,6 +22,7 @@ pub mod track;
 
 pub use animation::{Animation, AnimationChannel, ChannelTarget, Interpolation};
 pub use geometry::{Aabb, TriMesh};
+pub use interrupt::Interrupt;
 pub use kinematics::{DofLayout, ForwardKinematics};
 pub use math::{Matrix3, Matrix4, Point3, Quat, Real, Trs, Vector3};
 pub use rig::Rig;

@@ -90,6 +90,8 @@ pub enum SkeletonError {
     },
     #[error("joint {index} ('{name}') has a non-finite rest transform")]
     NonFinite { index: usize, name: String },
+    #[error("joint {index} ('{name}') is its own ancestor: the parent links form a cycle")]
+    Cycle { index: usize, name: String },
 }
 
 /// A joint tree stored parents-before-children, so one forward pass computes every world
@@ -154,12 +156,15 @@ impl Skeleton {
             }
         }
         if order.len() != n {
-            // A cycle: the unreached joints never get an index before their parent.
-            let index = (0..n).find(|i| !order.contains(i)).unwrap_or(0);
-            return Err(SkeletonError::ParentOrder {
+            // A cycle: the joints on it are never reached from a root.
+            let mut reached = vec![false; n];
+            for &i in &order {
+                reached[i] = true;
+            }
+            let index = reached.iter().position(|r| !r).unwrap_or(0);
+            return Err(SkeletonError::Cycle {
                 index,
                 name: joints[index].name.clone(),
-                parent: joints[index].parent.unwrap_or(index),
             });
         }
         let mut new_index = vec![0; n];
@@ -236,13 +241,22 @@ impl Skeleton {
     /// The deepest joint that is an ancestor (or self) of every skin joint: the joint that
     /// moves the whole character. `None` when skin joints live in separate trees.
     pub fn skin_root(&self) -> Option<usize> {
-        let skin: Vec<usize> = (0..self.len())
-            .filter(|&i| self.joints[i].kind == JointKind::Skin)
-            .collect();
-        let first = *skin.first()?;
+        // Skin joints in each joint's subtree, children folded into parents (linear in the
+        // joints however deep the tree).
+        let mut below = vec![0usize; self.len()];
+        for j in (0..self.len()).rev() {
+            if self.joints[j].kind == JointKind::Skin {
+                below[j] += 1;
+            }
+            if let Some(p) = self.joints[j].parent {
+                below[p] += below[j];
+            }
+        }
+        let first = (0..self.len()).find(|&i| self.joints[i].kind == JointKind::Skin)?;
+        let total: usize = self.roots().map(|r| below[r]).sum();
         let mut candidate = Some(first);
         while let Some(c) = candidate {
-            if skin.iter().all(|&s| self.is_ancestor_or_self(c, s)) {
+            if below[c] == total {
                 return Some(c);
             }
             candidate = self.joints[c].parent;
@@ -250,17 +264,24 @@ impl Skeleton {
         None
     }
 
+    /// For every joint, whether `ancestor` is it or one of its ancestors (one pass).
+    pub fn subtree_mask(&self, ancestor: usize) -> Vec<bool> {
+        let mut mask = vec![false; self.len()];
+        for j in 0..self.len() {
+            mask[j] = j == ancestor || self.joints[j].parent.is_some_and(|p| mask[p]);
+        }
+        mask
+    }
+
     /// The default degrees of freedom of a character: the skin root (or every root when the
     /// skin is a forest) is free, other skin joints are ball joints, helpers above the root
     /// and end sites are fixed.
     pub fn set_default_dofs(&mut self) {
         let root = self.skin_root();
+        let under = root.map(|r| self.subtree_mask(r));
         for i in 0..self.len() {
             let j = &self.joints[i];
-            let under_root = match root {
-                Some(r) => self.is_ancestor_or_self(r, i),
-                None => true,
-            };
+            let under_root = under.as_ref().is_none_or(|u| u[i]);
             let dof = if Some(i) == root || (root.is_none() && j.parent.is_none()) {
                 JointDof::Free
             } else if j.kind == JointKind::EndSite || !under_root {

@@ -69,17 +69,25 @@ pub fn jitter(points: &[Point3]) -> f64 {
         .windows(3)
         .map(|w| (w[1] - nalgebra::center(&w[0], &w[2])).norm())
         .collect();
-    d.sort_by(f64::total_cmp);
-    d[d.len() / 2] / (1.538 * 1.5f64.sqrt())
+    let middle = d.len() / 2;
+    let (_, median, _) = d.select_nth_unstable_by(middle, f64::total_cmp);
+    *median / (1.538 * 1.5f64.sqrt())
 }
 
-/// Moving average over `2 half + 1` consecutive input points (windows shrink at the ends).
+/// Moving average over `2 half + 1` consecutive input points (windows shrink at the ends),
+/// from prefix sums: linear in the points whatever the window.
 fn average_by_index(points: &[Point3], half: usize) -> Vec<Point3> {
     let n = points.len();
+    let prefix: Vec<nalgebra::Vector3<f64>> = std::iter::once(nalgebra::Vector3::zeros())
+        .chain(points.iter().scan(nalgebra::Vector3::zeros(), |acc, p| {
+            *acc += p.coords;
+            Some(*acc)
+        }))
+        .collect();
     (0..n)
         .map(|i| {
             let r = half.min(i).min(n - 1 - i);
-            let sum: nalgebra::Vector3<f64> = points[i - r..=i + r].iter().map(|p| p.coords).sum();
+            let sum = prefix[i + r + 1] - prefix[i - r];
             Point3::from(sum / (2 * r + 1) as f64)
         })
         .collect()
@@ -110,8 +118,25 @@ fn denoise_half_width(points: &[Point3], spacing: f64) -> usize {
         c.sort_by(f64::total_cmp);
         (c[c.len() / 2] - 6.0 * sigma * sigma).max(0.0).sqrt()
     };
+    // Step down one at a time near the wanted width; far above it, halve the gap (the span
+    // grows with the window), so the search stays logarithmic on very long strokes.
+    let mut steps = 0;
     while half > 0 && span(2 * half) > 1.5 * spacing {
-        half -= 1;
+        steps += 1;
+        if steps < 64 {
+            half -= 1;
+            continue;
+        }
+        let (mut fits, mut too_wide) = (0, half);
+        while too_wide - fits > 1 {
+            let mid = fits + (too_wide - fits) / 2;
+            if span(2 * mid) > 1.5 * spacing {
+                too_wide = mid;
+            } else {
+                fits = mid;
+            }
+        }
+        return fits;
     }
     half
 }

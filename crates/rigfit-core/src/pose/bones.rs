@@ -7,6 +7,10 @@ use crate::kinematics::ForwardKinematics;
 use crate::math::{Point3, transform_point};
 use crate::skeleton::{JointKind, Pose, Skeleton};
 
+/// The most points sampled along one bone: a bone far longer than the character is tall
+/// (a unit or export mistake) gets points further apart instead of an unbounded number.
+pub const MAX_POINTS_PER_BONE: usize = 64;
+
 /// A bone: the segment from a joint to one of its children, carried by the joint.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bone {
@@ -44,10 +48,11 @@ impl BoneModel {
     /// a skin joint or an end site.
     pub fn new(skeleton: &Skeleton, pose: &Pose, spacing: f64, min_length: f64) -> Self {
         let fk = ForwardKinematics::new(skeleton, pose);
-        let root = skeleton.skin_root();
-        let under_root = |j: usize| match root {
-            Some(r) => skeleton.is_ancestor_or_self(r, j),
-            None => skeleton.joint(j).kind != JointKind::Helper,
+        let under_root: Vec<bool> = match skeleton.skin_root() {
+            Some(r) => skeleton.subtree_mask(r),
+            None => (skeleton.joints().iter())
+                .map(|j| j.kind != JointKind::Helper)
+                .collect(),
         };
         // Each joint's anchor: itself, or the first ancestor reached through zero-length links.
         let mut anchor: Vec<usize> = (0..skeleton.len()).collect();
@@ -65,7 +70,7 @@ impl BoneModel {
             let Some(j) = skeleton.joint(c).parent else {
                 continue;
             };
-            if skeleton.joint(c).kind == JointKind::Helper || !under_root(j) {
+            if skeleton.joint(c).kind == JointKind::Helper || !under_root[j] {
                 continue;
             }
             let (a, b) = (fk.position(j), fk.position(c));
@@ -73,7 +78,8 @@ impl BoneModel {
             if length < min_length {
                 continue;
             }
-            let n = ((length / spacing).round() as usize).max(1);
+            // `as usize` saturates (and maps NaN to 0): the count stays within 1..=MAX.
+            let n = ((length / spacing).round() as usize).clamp(1, MAX_POINTS_PER_BONE);
             let inverse = fk
                 .world(j)
                 .try_inverse()
@@ -95,13 +101,15 @@ impl BoneModel {
                 length,
             });
         }
+        // The bones leaving each anchor, so that finding a bone's continuations is linear in
+        // the bones overall, not quadratic.
+        let mut leaving: Vec<Vec<usize>> = vec![Vec::new(); skeleton.len()];
+        for (k, bone) in bones.iter().enumerate() {
+            leaving[anchor[bone.joint]].push(k);
+        }
         let next_bones = bones
             .iter()
-            .map(|b| {
-                (0..bones.len())
-                    .filter(|&k| anchor[bones[k].joint] == anchor[b.child])
-                    .collect()
-            })
+            .map(|b| leaving[anchor[b.child]].clone())
             .collect();
         Self {
             bones,

@@ -147,6 +147,9 @@ pub(super) fn greedy(
             }
         }
     }
+    // Each stroke's first candidate that may still be free: bones only ever become used, so
+    // a candidate passed over never comes back (the scan is linear in the candidates).
+    let mut first_free = vec![0usize; strokes];
     loop {
         // The unassigned stroke whose best still-free chain fits best.
         let mut pick: Option<(f64, usize, usize, bool)> = None;
@@ -154,9 +157,13 @@ pub(super) fn greedy(
             if done[s] {
                 continue;
             }
-            let free = candidates[s]
+            let list = &candidates[s];
+            let skip = list[first_free[s]..]
                 .iter()
-                .find(|&&(_, c, _)| chains[c].iter().all(|&b| !used[b]));
+                .position(|&(_, c, _)| chains[c].iter().all(|&b| !used[b]))
+                .unwrap_or(list.len() - first_free[s]);
+            first_free[s] += skip;
+            let free = list.get(first_free[s]);
             match free {
                 Some(&(cost, c, rev)) if pick.is_none_or(|p| cost < p.0) => {
                     pick = Some((cost, s, c, rev))

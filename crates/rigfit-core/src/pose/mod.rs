@@ -13,6 +13,7 @@ mod chains;
 use crate::engine::{
     MatchMatrix, NormalSink, SkeletonNormalEquations, SoftassignParams, SubtreeMoments, softassign,
 };
+use crate::interrupt::Interrupt;
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Matrix4, Point3, Quat, Trs, Vector3};
 use crate::skeleton::{JointDof, Pose, Skeleton};
@@ -39,6 +40,24 @@ const LIMIT_WEIGHT: f64 = 100.0;
 
 /// The longest chain of bones one stroke may cover.
 const MAX_CHAIN_BONES: usize = 12;
+
+/// The most trial assignments the local search fits in one solve (the real rigs of the
+/// accuracy suite use at most about 110; a thousand cluttered strokes would use tens of
+/// thousands).
+const MAX_LOCAL_SEARCH_TRIALS: usize = 1_000;
+
+/// The most strokes set aside as strays that the local search tries in place of an
+/// assigned stroke, per pass.
+const MAX_STRAY_EXCHANGES: usize = 8;
+
+/// The most strokes one solve takes (more than any rig has chains to match).
+pub const MAX_STROKES: usize = 1_000;
+
+/// The most stroke points one solve takes, all strokes together, before resampling.
+pub const MAX_STROKE_POINTS: usize = 1_000_000;
+
+/// The most joints a rig may have for posing (ten times the largest production rigs).
+pub const MAX_POSE_JOINTS: usize = 10_000;
 
 /// How the solver runs. [`PoseOptions::paper`] is the method as published;
 /// [`PoseOptions::default`] adds rigfit's improvements. Lengths are fractions of the
@@ -121,6 +140,12 @@ impl PoseOptions {
 pub enum PoseError {
     #[error("no strokes")]
     NoStrokes,
+    #[error("strokes: {count} strokes, more than the {MAX_STROKES} one solve takes")]
+    TooManyStrokes { count: usize },
+    #[error("strokes: {count} points in all, more than the {MAX_STROKE_POINTS} one solve takes")]
+    TooManyPoints { count: usize },
+    #[error("the rig has {count} joints, more than the {MAX_POSE_JOINTS} posing takes")]
+    TooManyJoints { count: usize },
     #[error("strokes[{stroke}]: a stroke needs at least 2 points")]
     StrokeTooShort { stroke: usize },
     #[error("strokes[{stroke}].points[{point}]: coordinate is not a finite number")]
@@ -137,6 +162,22 @@ pub enum PoseError {
     NoBones,
     #[error("none of the chosen bones can move")]
     NothingMoves,
+    #[error("the solve was stopped before it finished (deadline passed or cancelled)")]
+    Interrupted,
+}
+
+impl PoseError {
+    /// True when the rig (or the list of bones that may move) is at fault, not the strokes:
+    /// callers name the rig's file in the message.
+    pub fn is_rig_problem(&self) -> bool {
+        matches!(
+            self,
+            Self::UnknownBone { .. }
+                | Self::NoBones
+                | Self::NothingMoves
+                | Self::TooManyJoints { .. }
+        )
+    }
 }
 
 /// What the solver found.
@@ -170,6 +211,10 @@ struct Solver<'a> {
     skeleton: &'a Skeleton,
     start: &'a Pose,
     options: &'a PoseOptions,
+    /// When to give up: every Levenberg-Marquardt step and every outer loop polls it.
+    interrupt: &'a Interrupt,
+    /// Trial assignments the local search may still fit (bounds its cost on many strokes).
+    trials_left: usize,
     height: f64,
     model: BoneModel,
     /// Stroke samples and the stroke each belongs to.
@@ -200,9 +245,33 @@ struct Solver<'a> {
 
 /// Poses `problem.skeleton` so its bones lie along the strokes.
 pub fn solve_pose(problem: &PoseProblem, options: &PoseOptions) -> Result<PoseResult, PoseError> {
+    solve_pose_interruptible(problem, options, &Interrupt::never())
+}
+
+/// [`solve_pose`] that gives up with [`PoseError::Interrupted`] soon after `interrupt` is set
+/// (a deadline, or a client that went away).
+pub fn solve_pose_interruptible(
+    problem: &PoseProblem,
+    options: &PoseOptions,
+    interrupt: &Interrupt,
+) -> Result<PoseResult, PoseError> {
     let skeleton = problem.skeleton;
     if problem.strokes.is_empty() {
         return Err(PoseError::NoStrokes);
+    }
+    if problem.strokes.len() > MAX_STROKES {
+        return Err(PoseError::TooManyStrokes {
+            count: problem.strokes.len(),
+        });
+    }
+    let points: usize = problem.strokes.iter().map(|s| s.points.len()).sum();
+    if points > MAX_STROKE_POINTS {
+        return Err(PoseError::TooManyPoints { count: points });
+    }
+    if skeleton.len() > MAX_POSE_JOINTS {
+        return Err(PoseError::TooManyJoints {
+            count: skeleton.len(),
+        });
     }
     for (s, stroke) in problem.strokes.iter().enumerate() {
         if stroke.points.len() < 2 {
@@ -295,6 +364,8 @@ pub fn solve_pose(problem: &PoseProblem, options: &PoseOptions) -> Result<PoseRe
         skeleton,
         start: problem.start,
         options,
+        interrupt,
+        trials_left: MAX_LOCAL_SEARCH_TRIALS,
         height,
         model,
         stroke_ranges: (0..problem.strokes.len())
@@ -317,7 +388,11 @@ pub fn solve_pose(problem: &PoseProblem, options: &PoseOptions) -> Result<PoseRe
         fk: None,
         trial: None,
     };
-    solver.run()
+    let result = solver.run();
+    if interrupt.is_set() {
+        return Err(PoseError::Interrupted);
+    }
+    result
 }
 
 impl Solver<'_> {
@@ -347,6 +422,9 @@ impl Solver<'_> {
             let chains = self.model.chains(MAX_CHAIN_BONES);
             let mut fits: Vec<(f64, Pose, Vec<chains::Assignment>, DofLayout)> = Vec::new();
             for start in starts {
+                if self.interrupt.is_set() {
+                    break;
+                }
                 self.pose = start;
                 if opts.anneal_before_chains {
                     self.anneal(&all, &sigmas, None);
@@ -370,7 +448,10 @@ impl Solver<'_> {
                     best = Some((score, self.pose.clone(), assignment, layout));
                 }
             }
-            let (_, pose, assignment, layout) = best.expect("at least one start");
+            let Some((_, pose, assignment, layout)) = best else {
+                // Only when interrupted before the first hypothesis was fitted.
+                return Err(PoseError::Interrupted);
+            };
             self.pose = pose;
             let allowed_bones: Vec<Option<Vec<bool>>> = assignment
                 .iter()
@@ -435,6 +516,9 @@ impl Solver<'_> {
         let mut assignment = chains::assign(self, chains, &excluded);
         let mut layout = self.layout(&self.movable.clone());
         for _round in 0..8 {
+            if self.interrupt.is_set() {
+                break;
+            }
             layout = self.keep_unexplained_at_start(&assignment, root);
             self.fit_arclength(&layout, &assignment);
             let again = chains::assign(self, chains, &excluded);
@@ -478,6 +562,9 @@ impl Solver<'_> {
         let bone_lengths: Vec<f64> = self.model.bones.iter().map(|b| b.length).collect();
         let length = |c: &[usize]| c.iter().map(|&b| bone_lengths[b]).sum::<f64>();
         for _pass in 0..2 {
+            if self.interrupt.is_set() {
+                break;
+            }
             let mut improved = false;
             for s in 0..strokes {
                 for t in s + 1..strokes {
@@ -504,12 +591,26 @@ impl Solver<'_> {
             }
             // A stroke set aside as a stray may be the real one: give it the chain of an
             // assigned stroke and set that one aside instead.
-            let set_aside: Vec<usize> = (0..strokes).filter(|&e| assignment[e].is_none()).collect();
+            // The candidates at the current pose, computed again only after the pose moved.
+            let mut ranked_now: Option<chains::Candidates> = None;
+            let mut set_aside: Vec<usize> =
+                (0..strokes).filter(|&e| assignment[e].is_none()).collect();
+            if set_aside.len() > MAX_STRAY_EXCHANGES {
+                // Many strays (clutter): only those that fit some chain best are tried.
+                let ranked = chains::candidates(self, chains, &vec![false; strokes]);
+                let best = |e: usize| ranked[e].first().map_or(f64::INFINITY, |c| c.0);
+                set_aside.sort_by(|&a, &b| best(a).total_cmp(&best(b)));
+                set_aside.truncate(MAX_STRAY_EXCHANGES);
+                set_aside.sort_unstable();
+                ranked_now = Some(ranked);
+            }
             for e in set_aside {
                 if assignment[e].is_some() {
                     continue;
                 }
-                let ranked = chains::candidates(self, chains, &vec![false; strokes]);
+                let ranked = ranked_now
+                    .get_or_insert_with(|| chains::candidates(self, chains, &vec![false; strokes]))
+                    .clone();
                 for s in 0..strokes {
                     if assignment[s].is_none() {
                         continue;
@@ -531,6 +632,7 @@ impl Solver<'_> {
                         layout = trial_layout;
                         score = trial_score;
                         improved = true;
+                        ranked_now = None;
                         break;
                     }
                 }
@@ -645,6 +747,10 @@ impl Solver<'_> {
         root: Option<usize>,
         score: f64,
     ) -> Option<(DofLayout, f64)> {
+        if self.trials_left == 0 {
+            return None;
+        }
+        self.trials_left -= 1;
         let saved = self.pose.clone();
         let layout = self.keep_unexplained_at_start(trial, root);
         self.fit_arclength_steps(&layout, trial, QUICK_FIT_STEPS);
@@ -824,6 +930,9 @@ impl Solver<'_> {
     ) -> MatchMatrix {
         let mut matches = MatchMatrix::default();
         for &sigma in sigmas {
+            if self.interrupt.is_set() {
+                break;
+            }
             let fk = ForwardKinematics::new(self.skeleton, &self.pose);
             let world = self.model.world_points(&fk);
             matches = self.softassign_at(&world, sigma, allowed);
@@ -844,6 +953,9 @@ impl Solver<'_> {
     ) -> MatchMatrix {
         let mut matches = self.match_now(sigma, allowed);
         for _ in 0..self.options.max_final_iterations {
+            if self.interrupt.is_set() {
+                break;
+            }
             self.align(layout, &matches);
             self.iterations += 1;
             let next = self.match_now(sigma, allowed);
@@ -942,7 +1054,7 @@ impl Solver<'_> {
     /// One Levenberg-Marquardt step pulling model point `k` to `targets[k]` (weighted),
     /// plus `Phi(p)`. Returns the relative decrease of the cost.
     fn align_to(&mut self, layout: &DofLayout, targets: &[Option<(Point3, f64)>]) -> f64 {
-        if layout.is_empty() {
+        if layout.is_empty() || self.interrupt.is_set() {
             return 0.0;
         }
         let skeleton = self.skeleton;
