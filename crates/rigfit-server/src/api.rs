@@ -8,7 +8,6 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-use crate::interrupt_compat::{Interrupt, solve_pose_interruptible};
 use axum::Json;
 use axum::body::{Body, Bytes};
 use axum::extract::rejection::QueryRejection;
@@ -17,7 +16,8 @@ use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use http_body_util::{BodyExt, LengthLimitError, Limited};
 use rigfit_core::JointDof;
-use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem};
+use rigfit_core::interrupt::Interrupt;
+use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem, solve_pose_interruptible};
 use rigfit_formats::ParseError;
 use rigfit_formats::json::parse_json;
 use rigfit_formats::report::pose_report;
@@ -415,7 +415,7 @@ fn solve_request(
     let t0 = Instant::now();
     let result = solve_pose_interruptible(&problem, &options, interrupt).map_err(|e| match e {
         // Stopped: at the deadline (a cancelled request has nobody to answer).
-        _ if interrupt.is_set() => ApiError::new(
+        PoseError::Interrupted => ApiError::new(
             StatusCode::SERVICE_UNAVAILABLE,
             format!(
                 "{WHAT}: the solve took longer than {} s, the server's limit (send fewer or shorter strokes)",

@@ -11,7 +11,6 @@ pub mod characters;
 pub mod connections;
 pub mod error;
 pub mod guard;
-mod interrupt_compat;
 pub mod memory;
 pub mod request;
 

@@ -487,7 +487,7 @@ fn uploads_past_the_memory_budget_are_refused_and_delete_frees_it() {
         bvh.len() as f64 / 1048576.0,
         stored as f64 / 1048576.0,
         budget as f64 / 1048576.0,
-        stored as f64 / 1048576.0 / (ids.len() + 1) as f64,
+        stored as f64 / 1048576.0 / ids.len() as f64,
     );
     assert!(ids.len() >= 2, "{}", ids.len());
     assert!(stored <= budget);
