@@ -172,21 +172,41 @@ fn serve_with_a_bad_rig_is_one_line_and_exit_2() {
     assert_bad_input(&o, std::path::Path::new("notes.txt"));
 }
 
-/// Solves that run for seconds on BCN_Epileptic: 200 strokes of varied lengths.
+/// A BVH rig of 50 chains of 20 joints fanning out from the hips (1051 joints, one frame).
+fn tree_bvh() -> String {
+    let (chains, depth) = (50, 20);
+    let mut text = String::from(
+        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n",
+    );
+    for c in 0..chains {
+        let a = std::f64::consts::TAU * c as f64 / chains as f64;
+        for d in 0..depth {
+            let r = if d == 0 { 0.05 } else { 0.025 };
+            text.push_str(&format!(
+                "JOINT C{c}_{d}\n{{\n OFFSET {:.4} 0.05 {:.4}\n CHANNELS 3 Zrotation Xrotation Yrotation\n",
+                r * a.cos(),
+                r * a.sin()
+            ));
+        }
+        text.push_str("End Site\n{\n OFFSET 0 0.05 0\n}\n");
+        text.push_str(&"}\n".repeat(depth));
+    }
+    text.push_str("}\nMOTION\nFrames: 1\nFrame Time: 0.04\n");
+    text.push_str(&vec!["0"; 6 + 3 * chains * depth].join(" "));
+    text.push('\n');
+    text
+}
+
+/// A solve that runs for many seconds on [`tree_bvh`]'s rig: 200 strokes of varied lengths.
 fn heavy_solve(seed: usize) -> String {
     let strokes: Vec<String> = (0..200)
         .map(|s| {
             let a = s as f64 * 0.61 + seed as f64 * 0.1;
             let length = 0.3 + 0.07 * ((s * 7) % 10) as f64;
-            let points: Vec<String> = (0..50)
+            let points: Vec<String> = (0..250)
                 .map(|k| {
-                    let t = length * k as f64 / 50.0;
-                    format!(
-                        "[{}, {}, {}]",
-                        0.3 * a.cos() * t,
-                        -0.9 + 1.5 * t,
-                        0.2 * a.sin() * t
-                    )
+                    let t = 1.05 * length * k as f64 / 250.0;
+                    format!("[{}, {}, {}]", 0.5 * a.cos() * t, t, 0.5 * a.sin() * t)
                 })
                 .collect();
             format!("{{\"points\": [{}]}}", points.join(", "))
@@ -198,12 +218,11 @@ fn heavy_solve(seed: usize) -> String {
 #[test]
 fn sigterm_with_solves_under_way_exits_within_5_s() {
     let (child, addr, _) = start(&[]);
-    let bcn = std::fs::read(data("assimp/BCN_Epileptic.glb")).expect("asset");
     let (status, body) = http_post(
         addr,
-        "/api/characters?name=BCN_Epileptic.glb",
+        "/api/characters?name=tree.bvh",
         "application/octet-stream",
-        &bcn,
+        tree_bvh().as_bytes(),
     );
     assert_eq!(status, 201, "{body}");
     // Three solves (more than the workers of a small machine), their clients waiting.

@@ -58,24 +58,50 @@ fn small_solve() -> String {
         .to_string()
 }
 
-/// Uploads BCN_Epileptic (55 joints); its id.
-fn upload_bcn(addr: SocketAddr) -> String {
-    let bytes = std::fs::read(common::asset("assimp/BCN_Epileptic.glb")).expect("asset");
-    common::load::upload(addr, "BCN_Epileptic.glb", &bytes)
+/// A BVH rig of `chains` chains of `depth` joints fanning out from the hips (one frame, at
+/// rest), 1.05 units high for 20 joints a chain.
+fn tree_bvh(chains: usize, depth: usize) -> String {
+    let mut text = String::from(
+        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n",
+    );
+    for c in 0..chains {
+        let a = std::f64::consts::TAU * c as f64 / chains as f64;
+        for d in 0..depth {
+            let r = if d == 0 { 0.05 } else { 0.025 };
+            text.push_str(&format!(
+                "JOINT C{c}_{d}\n{{\n OFFSET {:.4} 0.05 {:.4}\n CHANNELS 3 Zrotation Xrotation Yrotation\n",
+                r * a.cos(),
+                r * a.sin()
+            ));
+        }
+        text.push_str("End Site\n{\n OFFSET 0 0.05 0\n}\n");
+        text.push_str(&"}\n".repeat(depth));
+    }
+    text.push_str("}\nMOTION\nFrames: 1\nFrame Time: 0.04\n");
+    let channels = 6 + 3 * chains * depth;
+    text.push_str(&vec!["0"; channels].join(" "));
+    text.push('\n');
+    text
 }
 
-/// A solve that runs for seconds on BCN_Epileptic (about 6 s in a debug build): the most
-/// strokes a request may hold, of varied lengths, fanning out from the hips. `seed` turns
-/// the fan.
+/// Uploads a 1051-joint rig (50 chains of 20 joints) on which the heaviest solve a request
+/// may ask takes seconds; its id.
+fn upload_big_rig(addr: SocketAddr) -> String {
+    common::load::upload(addr, "tree.bvh", tree_bvh(50, 20).as_bytes())
+}
+
+/// A solve that runs for seconds on [`upload_big_rig`]'s rig (about 19 s in a debug build):
+/// the most strokes a request may hold, of varied lengths, fanning out from the hips. `seed`
+/// turns the fan.
 fn heavy_solve(seed: u64) -> String {
     let strokes: Vec<Value> = (0..rigfit_server::request::MAX_STROKES)
         .map(|s| {
             let a = s as f64 * 0.61 + seed as f64 * 0.1;
             let length = 0.3 + 0.07 * ((s * 7) % 10) as f64;
-            let points: Vec<Value> = (0..50)
+            let points: Vec<Value> = (0..250)
                 .map(|k| {
-                    let t = length * k as f64 / 50.0;
-                    json!([0.3 * a.cos() * t, -0.9 + 1.5 * t, 0.2 * a.sin() * t])
+                    let t = 1.05 * length * k as f64 / 250.0;
+                    json!([0.5 * a.cos() * t, t, 0.5 * a.sin() * t])
                 })
                 .collect();
             json!({ "points": points })
@@ -315,10 +341,10 @@ fn a_solve_whose_client_leaves_is_cancelled() {
     });
     let addr = server.addr;
     let state = server.state.clone();
-    let bcn = upload_bcn(addr);
+    let rig = upload_big_rig(addr);
     let stream = send_unread(
         addr,
-        &format!("/api/characters/{bcn}/solve"),
+        &format!("/api/characters/{rig}/solve"),
         &heavy_solve(1),
     );
     wait_for(Duration::from_secs(10), || state.busy_workers() == 1).expect("the solve starts");
@@ -344,13 +370,13 @@ fn a_solve_past_the_deadline_gets_503() {
         solve_timeout: Duration::from_millis(300),
         ..ServerConfig::default()
     });
-    let bcn = upload_bcn(server.addr);
+    let rig = upload_big_rig(server.addr);
     let t0 = Instant::now();
     let line = error_line(
         request(
             server.addr,
             "POST",
-            &format!("/api/characters/{bcn}/solve"),
+            &format!("/api/characters/{rig}/solve"),
             heavy_solve(2).as_bytes(),
         ),
         503,
@@ -371,7 +397,7 @@ fn shutdown_with_solves_under_way_is_bounded() {
         ..ServerConfig::default()
     });
     let state = server.state.clone();
-    let solve = format!("/api/characters/{}/solve", upload_bcn(server.addr));
+    let solve = format!("/api/characters/{}/solve", upload_big_rig(server.addr));
     let streams: Vec<TcpStream> = (0..3)
         .map(|i| send_unread(server.addr, &solve, &heavy_solve(10 + i)))
         .collect();
@@ -399,6 +425,7 @@ fn idle_and_partial_connections_do_not_starve_the_server() {
     });
     let addr = server.addr;
     let mut held = Vec::new();
+    let opened = Instant::now();
     for i in 0..300 {
         let mut stream = connect(addr).expect("connects");
         match i % 3 {
@@ -415,6 +442,7 @@ fn idle_and_partial_connections_do_not_starve_the_server() {
         }
         held.push((i, stream));
     }
+    println!("300 connections opened in {:?}", opened.elapsed());
     // A new client is answered while all 300 are still open.
     let t0 = Instant::now();
     let answer = request(addr, "GET", "/api/characters", b"").expect("answered");
