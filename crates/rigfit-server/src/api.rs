@@ -223,20 +223,15 @@ pub async fn upload_character(
     };
     require_content_type(request.headers(), "upload", UPLOAD_TYPES)?;
     check_declared_length(&request, UPLOAD_LIMIT)?;
-    // The upload's share of the memory budget is held while it is read and parsed: its
-    // declared length (or the upload limit) times what the reader may take per byte.
+    // The upload's share of the memory budget is held while it is read and parsed: what the
+    // reader may take at its peak for the declared length (the upload limit itself while an
+    // undeclared body is read), then for the actual length.
     let factor = crate::memory::parse_factor(format);
-    let declared = declared_length(&request).map_or(UPLOAD_LIMIT, |n| {
-        usize::try_from(n).unwrap_or(usize::MAX).min(UPLOAD_LIMIT)
+    let reading = declared_length(&request).map_or(UPLOAD_LIMIT, |n| {
+        usize::try_from(n).map_or(usize::MAX, |n| n.saturating_mul(factor))
     });
-    let reading = match state
-        .characters
-        .reserve(if declared_length(&request).is_some() {
-            declared.saturating_mul(factor)
-        } else {
-            declared
-        }) {
-        Ok(reading) => reading,
+    let mut held = match state.characters.reserve(reading) {
+        Ok(held) => held,
         Err(why) => {
             // Read (and drop) the body first, so that a browser sees the answer rather than
             // a connection closed while it sends.
@@ -245,10 +240,7 @@ pub async fn upload_character(
         }
     };
     let bytes = read_body(&state, request, UPLOAD_LIMIT).await?;
-    drop(reading);
-    let parsing = state
-        .characters
-        .reserve(bytes.len().saturating_mul(factor))
+    held.resize(bytes.len().saturating_mul(factor))
         .map_err(store_full)?;
     let parse_name = file_name.clone();
     let (_, rig_file) = run_blocking(&state, move || read_upload(&bytes, &parse_name, &options))
@@ -258,7 +250,7 @@ pub async fn upload_character(
     let added = state
         .characters
         .add_within_budget(
-            parsing,
+            held,
             |id| Character::new(id, &file_name, format, rig_file),
             size,
         )

@@ -179,6 +179,23 @@ impl Reservation<'_> {
     pub fn bytes(&self) -> usize {
         self.bytes
     }
+
+    /// Holds `bytes` instead: less always succeeds; more only if it fits in the budget beside
+    /// the stored characters and the other reservations (else the reservation is unchanged).
+    pub fn resize(&mut self, bytes: usize) -> Result<(), StoreFull> {
+        let mut inner = self.store.write();
+        let others = inner.used().saturating_sub(self.bytes);
+        if bytes > self.bytes && others.saturating_add(bytes) > self.store.budget {
+            return Err(StoreFull::Memory {
+                needed: bytes,
+                used: others,
+                budget: self.store.budget,
+            });
+        }
+        inner.reserved_bytes = others.saturating_sub(inner.stored_bytes) + bytes;
+        self.bytes = bytes;
+        Ok(())
+    }
 }
 
 impl CharacterStore {
@@ -369,6 +386,14 @@ mod tests {
         );
         assert!(store.remove(&b.id));
         assert_eq!(store.stored_bytes(), 0);
+        let mut held = store.reserve(1000).expect("all of it");
+        held.resize(100).expect("less");
+        let other = store.reserve(900).expect("the rest");
+        assert!(held.resize(101).is_err());
+        assert_eq!(held.bytes(), 100);
+        drop(other);
+        held.resize(1000).expect("all of it again");
+        drop(held);
         assert!(store.reserve(1000).is_ok());
     }
 }
