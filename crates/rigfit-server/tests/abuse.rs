@@ -539,3 +539,46 @@ fn uploads_past_the_memory_budget_are_refused_and_delete_frees_it() {
     assert!(store.stored_bytes() <= budget);
     assert_serving(addr);
 }
+
+#[test]
+fn a_client_that_stops_reading_is_disconnected() {
+    let server = RunningServer::start_with(ServerConfig {
+        send_timeout: Duration::from_millis(500),
+        ..ServerConfig::default()
+    });
+    let addr = server.addr;
+    // A display model of about 16 MiB: more than the sockets' buffers hold.
+    let id = common::load::upload(addr, "long.bvh", &long_bvh(460_000));
+    let mut stream = connect(addr).expect("connects");
+    write!(
+        stream,
+        "GET /api/characters/{id}/model.glb HTTP/1.1\r\nHost: {addr}\r\n\r\n"
+    )
+    .expect("sent");
+    // The client reads nothing for 2 s: the server gives up on it after 0.5 s.
+    std::thread::sleep(Duration::from_secs(2));
+    stream
+        .set_read_timeout(Some(Duration::from_secs(5)))
+        .expect("timeout");
+    let mut got = Vec::new();
+    let t0 = Instant::now();
+    let end = stream.read_to_end(&mut got);
+    println!(
+        "a client that stopped reading got {:.1} MiB before the server closed ({end:?} after {:?})",
+        got.len() as f64 / 1048576.0,
+        t0.elapsed()
+    );
+    assert!(
+        end.is_ok()
+            || end
+                .as_ref()
+                .is_err_and(|e| e.kind() == io::ErrorKind::ConnectionReset),
+        "the server closed the connection: {end:?}"
+    );
+    assert!(
+        got.len() < 16 << 20,
+        "{} bytes: the whole answer",
+        got.len()
+    );
+    assert_serving(addr);
+}
