@@ -14,10 +14,14 @@ use common::{assert_bad_input, data, rigfit};
 
 /// Starts `rigfit serve ARGS --port 0` and reads the address from its first line.
 fn start(args: &[&str]) -> (Child, SocketAddr, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_rigfit"))
-        .arg("serve")
-        .args(args)
-        .args(["--port", "0"])
+    let mut command = Command::new(env!("CARGO_BIN_EXE_rigfit"));
+    command.arg("serve").args(args).args(["--port", "0"]);
+    start_command(command)
+}
+
+/// Starts `command` (a `rigfit serve --port 0`) and reads the address from its first line.
+fn start_command(mut command: Command) -> (Child, SocketAddr, String) {
+    let mut child = command
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -333,4 +337,39 @@ fn resident_memory_stays_within_the_budget_however_many_uploads() {
     assert_eq!(again, stored.len());
     assert!(peak < limit, "peak {} MiB", peak / MIB);
     assert_eq!(terminate(child), Some(0));
+}
+
+#[test]
+fn three_hundred_idle_connections_do_not_starve_a_server_with_256_files() {
+    // As the issue found it: a process allowed 256 open files, 300 connections that send
+    // nothing or half a request head.
+    let mut command = Command::new("sh");
+    command.args([
+        "-c",
+        &format!(
+            "ulimit -n 256 && exec {} serve --port 0",
+            env!("CARGO_BIN_EXE_rigfit")
+        ),
+    ]);
+    let (child, addr, _) = start_command(command);
+    let held: Vec<TcpStream> = (0..300)
+        .map(|i| {
+            let mut stream =
+                TcpStream::connect_timeout(&addr, Duration::from_secs(10)).expect("connects");
+            if i % 2 == 1 {
+                write!(stream, "GET /api/characters HTTP/1.1\r\nHost: {addr}\r\n").expect("sent");
+            }
+            stream
+        })
+        .collect();
+    let t0 = Instant::now();
+    let (status, body) = http_get(addr, "/api/characters");
+    let waited = t0.elapsed();
+    println!(
+        "ulimit -n 256, 300 idle or partial connections: a new request answered in {waited:?}"
+    );
+    assert_eq!(status, 200, "{body}");
+    assert!(waited < Duration::from_secs(5), "{waited:?}");
+    assert_eq!(terminate(child), Some(0));
+    drop(held);
 }
