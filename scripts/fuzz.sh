@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
-# Fuzzes the file readers of rigfit-formats with cargo-fuzz (libFuzzer), one target at a time.
+# Fuzzes rigfit with cargo-fuzz (libFuzzer), one target at a time: the file readers of
+# rigfit-formats, a strokes file through the posing solver (strokes_solve), and a `rigfit
+# serve` solve request through the real router (solve_request).
 #
 #   scripts/fuzz.sh [SECONDS] [TARGET...]
 #
 # SECONDS   how long each target runs (default 60)
-# TARGET    any of: ply obj strokes bvh gltf (default: all of them, in that order)
+# TARGET    any of: ply obj strokes bvh gltf strokes_solve solve_request (default: all of
+#           them, in that order)
 #
 # The targets live in fuzz/fuzz_targets/ (fuzz/ is a cargo-fuzz project with its own
 # workspace, not a member of the main one). Each run starts from the committed seeds in
@@ -19,6 +22,10 @@
 #   FUZZ_SANITIZER  address (default) or none (faster, finds only panics, hangs and OOMs)
 #   FUZZ_ARGS       extra libFuzzer arguments, e.g. "-seed=1 -use_value_profile=1"
 #
+# A finding of strokes_solve or solve_request, once fixed, is minimised and copied into
+# seeds/TARGET/: the tests replay those folders (rigfit-cli tests/fuzz_corpus.rs and
+# rigfit-server tests/fuzz_corpus.rs).
+#
 # Reproduce or minimise a finding:
 #   cd fuzz && RUSTC_BOOTSTRAP=1 cargo fuzz run TARGET artifacts/TARGET/crash-...
 #   cd fuzz && RUSTC_BOOTSTRAP=1 cargo fuzz tmin TARGET artifacts/TARGET/crash-...
@@ -29,14 +36,14 @@ cd "$(dirname "$0")/../fuzz"
 seconds=${1:-60}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(ply obj strokes bvh gltf)
+[ ${#targets[@]} -gt 0 ] || targets=(ply obj strokes bvh gltf strokes_solve solve_request)
 sanitizer=${FUZZ_SANITIZER:-address}
 export RUSTC_BOOTSTRAP=1
 
 max_len() {
   case "$1" in
     gltf | ply) echo 262144 ;;
-    obj | bvh) echo 65536 ;;
+    obj | bvh | solve_request | strokes_solve) echo 65536 ;;
     *) echo 16384 ;;
   esac
 }
@@ -54,6 +61,8 @@ for t in "${targets[@]}"; do
   mkdir -p "corpus/$t" "artifacts/$t"
   dict=()
   [ -f "dicts/$t.dict" ] && dict=("-dict=dicts/$t.dict")
+  # The solver targets take JSON: the strokes dictionary serves them too.
+  case "$t" in strokes_solve | solve_request) dict=("-dict=dicts/strokes.dict") ;; esac
   echo "== fuzz $t for ${seconds}s"
   # shellcheck disable=SC2086 # FUZZ_ARGS is a list of arguments
   if ! cargo fuzz run --sanitizer "$sanitizer" "$t" "corpus/$t" "seeds/$t" -- \

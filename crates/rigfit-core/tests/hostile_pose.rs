@@ -102,6 +102,7 @@ fn deep_chains_pose_in_bounded_time() {
         )];
         let (result, took) = solve_timed(&skeleton, &start, &strokes, 1.0);
         assert!(result.is_ok(), "{n} joints: {result:?}");
+        eprintln!("{n}-joint chain: {took:?}");
         assert!(took < HANG, "{n}-joint chain took {took:?}");
     }
 }
@@ -114,6 +115,7 @@ fn wide_stars_pose_in_bounded_time() {
         let strokes = [line(Point3::origin(), Point3::new(0.0, 0.0, 1.0), 20)];
         let (result, took) = solve_timed(&skeleton, &start, &strokes, 2.0);
         assert!(result.is_ok(), "{n} leaves: {result:?}");
+        eprintln!("{n}-leaf star: {took:?}");
         assert!(took < HANG, "{n}-leaf star took {took:?}");
     }
 }
@@ -153,6 +155,7 @@ fn many_strokes_pose_in_bounded_time() {
         .collect();
     let (result, took) = solve_timed(&rig.skeleton, &rig.pose, &strokes, height);
     assert!(result.is_ok(), "{result:?}");
+    eprintln!("{} strokes: {took:?}", strokes.len());
     assert!(took < HANG, "{} strokes took {took:?}", strokes.len());
 
     let too_many = vec![strokes[0].clone(); MAX_STROKES + 1];
@@ -184,6 +187,7 @@ fn stroke_points_are_bounded() {
         height,
     );
     assert!(result.is_ok(), "{result:?}");
+    eprintln!("a {MAX_STROKE_POINTS}-point stroke: {took:?}");
     assert!(
         took < HANG,
         "a {MAX_STROKE_POINTS}-point stroke took {took:?}"

@@ -10,86 +10,14 @@
 //! points-by-patches matrix is ever formed. Posteriors (eq. 8) are collapsed per vertex into
 //! the sums the M-step needs.
 
-use std::num::NonZero;
 
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 
 use super::model::{PatchModel, PatchPose, Predictions};
 use super::nearest::{NearTree, NearestFew};
+pub use super::point_tree::PointTree;
 use crate::geometry::Aabb;
 use crate::math::{Matrix3, Point3, Vector3};
-
-/// A kd-tree over 3D points (indices into the slice it was built from). Coordinates are
-/// stored in single precision relative to the first point: ample for choosing neighbours,
-/// and twice as fast to search.
-#[derive(Debug)]
-pub struct PointTree {
-    tree: ImmutableKdTree<f32, 3>,
-    origin: Point3,
-    len: usize,
-}
-
-impl PointTree {
-    pub fn new(points: &[[f64; 3]]) -> Self {
-        let origin = Point3::from(points.first().copied().unwrap_or([0.0; 3]));
-        let local: Vec<[f32; 3]> = points
-            .iter()
-            .map(|p| to_local(&Point3::from(*p), &origin))
-            .collect();
-        let tree = ImmutableKdTree::new_from_slice(&local).expect("finite points build a kd-tree");
-        Self {
-            tree,
-            origin,
-            len: points.len(),
-        }
-    }
-
-    fn local(&self, p: &Point3) -> [f32; 3] {
-        to_local(p, &self.origin)
-    }
-
-    /// The index of the nearest point (`0` for an empty tree).
-    pub fn nearest(&self, p: &Point3) -> usize {
-        if self.len == 0 {
-            return 0;
-        }
-        self.tree
-            .query(&self.local(p))
-            .nearest_one::<SquaredEuclidean<f32>>()
-            .execute()
-            .item as usize
-    }
-
-    /// Up to `n` nearest points within `radius`, nearest first, with squared distances.
-    pub fn nearest_within(&self, p: &Point3, n: usize, radius: f64) -> Vec<(usize, f64)> {
-        let Some(n) = NonZero::new(n.min(self.len)) else {
-            return Vec::new();
-        };
-        self.tree
-            .query(&self.local(p))
-            .nearest_n::<SquaredEuclidean<f32>>(n)
-            .within((radius * radius) as f32)
-            .execute()
-            .into_iter()
-            .map(|r| (r.item as usize, r.distance as f64))
-            .collect()
-    }
-
-    /// The `n` nearest points, nearest first.
-    pub fn nearest_n(&self, p: &Point3, n: usize) -> Vec<usize> {
-        let Some(n) = NonZero::new(n.min(self.len)) else {
-            return Vec::new();
-        };
-        self.tree
-            .query(&self.local(p))
-            .nearest_n::<SquaredEuclidean<f32>>(n)
-            .execute()
-            .into_iter()
-            .map(|r| r.item as usize)
-            .collect()
-    }
-}
 
 /// Normals of a point cloud by principal component analysis of each point's `k` nearest
 /// neighbours. Their sign is unknown (see [`Observations::oriented`]).
@@ -451,7 +379,7 @@ type Searched = (u32, u8, f64);
 
 /// `p - origin` in single precision.
 #[inline]
-fn to_local(p: &Point3, origin: &Point3) -> [f32; 3] {
+pub(super) fn to_local(p: &Point3, origin: &Point3) -> [f32; 3] {
     [
         (p.x - origin.x) as f32,
         (p.y - origin.y) as f32,

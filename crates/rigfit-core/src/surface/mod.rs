@@ -13,6 +13,7 @@ pub mod estep;
 pub mod model;
 pub mod nearest;
 pub mod patches;
+pub mod point_tree;
 pub mod solve;
 
 pub use estep::{
@@ -40,6 +41,12 @@ pub enum SurfaceError {
     Degenerate,
     #[error("{what} {index}: coordinate is not a finite number (NaN or infinity)")]
     NonFinite { what: &'static str, index: usize },
+    #[error(
+        "{what} {index}: a coordinate is beyond +-{MAX_COORDINATE:e} (a unit or export mistake: its squares would overflow)"
+    )]
+    OutOfRange { what: &'static str, index: usize },
+    #[error("the fit diverged (the tracked mesh left the range of finite numbers)")]
+    Diverged,
     #[error("the frame has no points")]
     EmptyFrame,
     #[error("the frame has {normals} normals for {points} points")]
@@ -48,6 +55,17 @@ pub enum SurfaceError {
     CountLength { counts: usize, points: usize },
     #[error(transparent)]
     Solve(#[from] SolveError),
+}
+
+/// The largest coordinate magnitude the tracker takes, in any unit (a trillion: a thousand
+/// kilometres in micrometres); beyond it the solver's sums of squares lose all precision.
+pub const MAX_COORDINATE: f64 = 1e12;
+
+/// The index of the first point with a coordinate beyond [`MAX_COORDINATE`].
+pub(crate) fn first_out_of_range(points: &[Point3]) -> Option<usize> {
+    points
+        .iter()
+        .position(|p| p.iter().any(|x| x.abs() > MAX_COORDINATE))
 }
 
 /// Everything that tunes the tracker. Lengths are fractions of the reference's bounding-box
@@ -180,6 +198,12 @@ impl Observations {
                 index: i,
             });
         }
+        if let Some(index) = first_out_of_range(&mesh.vertices) {
+            return Err(SurfaceError::OutOfRange {
+                what: "point",
+                index,
+            });
+        }
         let usable = |n: &[Vector3]| {
             n.len() == mesh.vertices.len()
                 && n.iter()
@@ -231,6 +255,12 @@ impl Observations {
                     index: i,
                 });
             }
+        }
+        if let Some(index) = first_out_of_range(&self.points) {
+            return Err(SurfaceError::OutOfRange {
+                what: "point",
+                index,
+            });
         }
         Ok(())
     }
@@ -385,6 +415,11 @@ impl SurfaceTracker {
             {
                 break;
             }
+        }
+        if positions.iter().any(|p| p.iter().any(|x| !x.is_finite())) {
+            // Never hand out a broken mesh: the next frame starts again from this one's start.
+            self.pose = last;
+            return Err(SurfaceError::Diverged);
         }
         self.previous = Some(last);
         let total = targets.total_weight();

@@ -99,6 +99,12 @@ impl PatchModel {
                 index: i,
             });
         }
+        if let Some(index) = super::first_out_of_range(&rest) {
+            return Err(SurfaceError::OutOfRange {
+                what: "reference vertex",
+                index,
+            });
+        }
         if reference.triangles.is_empty() {
             return Err(SurfaceError::NoFaces);
         }
