@@ -61,8 +61,8 @@ for t in "${targets[@]}"; do
   mkdir -p "corpus/$t" "artifacts/$t"
   dict=()
   [ -f "dicts/$t.dict" ] && dict=("-dict=dicts/$t.dict")
-  # The solver targets take JSON: the strokes dictionary serves them too.
-  case "$t" in strokes_solve | solve_request) dict=("-dict=dicts/strokes.dict") ;; esac
+  # A strokes file through the solver takes the strokes reader's keywords.
+  [ "$t" = strokes_solve ] && dict=("-dict=dicts/strokes.dict")
   echo "== fuzz $t for ${seconds}s"
   # shellcheck disable=SC2086 # FUZZ_ARGS is a list of arguments
   if ! cargo fuzz run --sanitizer "$sanitizer" "$t" "corpus/$t" "seeds/$t" -- \

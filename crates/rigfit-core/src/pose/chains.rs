@@ -95,6 +95,11 @@ pub(super) fn candidates(solver: &Solver, chains: &[Vec<usize>], excluded: &[boo
     // Candidates per stroke: (cost, chain index, reversed), best first.
     let mut candidates: Vec<Vec<(f64, usize, bool)>> = vec![Vec::new(); strokes];
     for s in (0..strokes).filter(|&s| !excluded[s]) {
+        // Comparing every stroke with every chain is the solver's widest loop: an interrupt
+        // leaves the remaining strokes without candidates (nothing more is assigned).
+        if solver.interrupt.is_set() {
+            break;
+        }
         let stroke = stroke_points(solver, s);
         let scum = cumulative(&stroke);
         let stroke_len = *scum.last().unwrap_or(&0.0);

@@ -10,7 +10,6 @@
 //! points-by-patches matrix is ever formed. Posteriors (eq. 8) are collapsed per vertex into
 //! the sums the M-step needs.
 
-
 use rayon::prelude::*;
 
 use super::model::{PatchModel, PatchPose, Predictions};
