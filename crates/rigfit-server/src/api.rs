@@ -359,6 +359,7 @@ fn solve_request(
         Some(Value::Array(list)) if list.is_empty() => Vec::new(),
         _ => strokes_from_json(&doc).map_err(|e| bad_body(WHAT, &e))?,
     };
+    let posed_by_request = request::optional(obj, "pose").is_some();
     let start = match request::optional(obj, "pose") {
         None => rig.pose.clone(),
         Some(p) => request::pose("pose", p, &rig.skeleton, &rig.pose, &limits)
@@ -414,8 +415,12 @@ fn solve_request(
                 timeout.as_secs_f64()
             ),
         ),
+        // A pose the request sent that leaves no bone of any length is the request's.
+        PoseError::NoBones if posed_by_request => {
+            ApiError::unprocessable(format!("{WHAT}: pose: {e}"))
+        }
         // As the command line: problems of the rig name the rig's file.
-        PoseError::UnknownBone { .. } | PoseError::NoBones | PoseError::NothingMoves => {
+        e if e.is_rig_problem() => {
             ApiError::unprocessable(format!("{}: {e}", character.rig_file.path.display()))
         }
         _ => ApiError::unprocessable(format!("{WHAT}: {e}")),

@@ -395,6 +395,15 @@ async fn bad_solve_requests_get_one_line_and_the_server_goes_on() {
             "humanoid.glb: unknown bone 'Wing'",
         ),
         (
+            // The request's own pose shrinks every bone to nothing: the request is at fault.
+            json!({ "strokes": strokes,
+                    "pose": { "joints": [{ "name": "Hips", "scale": [0, 0, 0] }] } })
+            .to_string()
+            .into(),
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "solve request: pose: the rig has no bones",
+        ),
+        (
             json!({ "strokes": [{ "points": [[0, 1, 0], [1e9, 1, 0]] }] })
                 .to_string()
                 .into(),
