@@ -49,6 +49,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriMesh, ParseError> {
 /// Reads a PLY file, naming it in any error.
 pub fn read_ply(path: &Path) -> Result<TriMesh, FormatError> {
     let bytes = read_bytes(path)?;
+    let _span = tracing::warn_span!("reading", file = %path.display()).entered();
     parse_ply(&bytes).map_err(|e| FormatError::parse(path, e))
 }
 
