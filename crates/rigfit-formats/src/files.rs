@@ -101,8 +101,7 @@ pub fn open_regular(path: &Path, limit: u64) -> io::Result<(File, u64)> {
 pub fn read_regular(path: &Path, limit: u64) -> io::Result<Vec<u8>> {
     let (file, len) = open_regular(path, limit)?;
     let mut bytes = Vec::with_capacity(len as usize);
-    file.take(limit.saturating_add(1))
-        .read_to_end(&mut bytes)?;
+    file.take(limit.saturating_add(1)).read_to_end(&mut bytes)?;
     if bytes.len() as u64 > limit {
         return Err(refused(format!(
             "grew past the {limit} bytes rigfit reads from one file while being read"
@@ -224,8 +223,7 @@ pub fn read_relative_uri(
             "'{shown}' leads outside the glTF's folder (a symbolic link); only files beside it are read"
         ));
     }
-    let (file, len) =
-        open_regular(&real, MAX_INPUT_BYTES).map_err(|e| format!("'{shown}' {e}"))?;
+    let (file, len) = open_regular(&real, MAX_INPUT_BYTES).map_err(|e| format!("'{shown}' {e}"))?;
     if len < byte_length {
         return Err(format!(
             "byteLength is {byte_length} but '{shown}' holds only {len} bytes (truncated?)"

@@ -110,8 +110,7 @@ pub fn read_rig(path: &Path, options: &RigOptions) -> Result<RigFile, FormatErro
         RigFormat::from_path(path),
         Some(RigFormat::Glb | RigFormat::Gltf)
     ) {
-        let doc =
-            crate::gltf::parse_gltf_file(&bytes, path, options.skin.as_deref())?;
+        let doc = crate::gltf::parse_gltf_file(&bytes, path, options.skin.as_deref())?;
         return rig_file_from_gltf(doc, path);
     }
     let mut no_files = |_: &str, _: usize| -> Result<Vec<u8>, String> {
@@ -162,7 +161,7 @@ fn rig_from_bytes(
     bytes: &[u8],
     path: &Path,
     options: &RigOptions,
-    load_uri: &mut dyn FnMut(&str, usize) -> Result<Vec<u8>, String>,
+    load_uri: &mut crate::gltf::LoadUri<'_>,
 ) -> Result<RigFile, FormatError> {
     match RigFormat::from_path(path) {
         Some(RigFormat::Glb | RigFormat::Gltf) => {

@@ -61,10 +61,13 @@ pub fn parse_gltf(
     read::parse(bytes, &mut |uri, _| load_uri(uri), skin_name)
 }
 
+/// Supplies the bytes of an external buffer: its URI and declared byteLength.
+pub(crate) type LoadUri<'a> = dyn FnMut(&str, usize) -> Result<Vec<u8>, String> + 'a;
+
 /// [`parse_gltf`] with a loader that is also given each buffer's byteLength.
 pub(crate) fn parse_gltf_with(
     bytes: &[u8],
-    load_uri: &mut dyn FnMut(&str, usize) -> Result<Vec<u8>, String>,
+    load_uri: &mut LoadUri<'_>,
     skin_name: Option<&str>,
 ) -> Result<GltfDocument, ParseError> {
     read::parse(bytes, load_uri, skin_name)
@@ -95,11 +98,14 @@ pub(crate) fn check_image_uris(json: &Value) -> Result<(), ParseError> {
             continue;
         };
         let lower = uri.to_ascii_lowercase();
-        if lower.starts_with("data:") || lower.starts_with("http://") || lower.starts_with("https://")
+        if lower.starts_with("data:")
+            || lower.starts_with("http://")
+            || lower.starts_with("https://")
         {
             continue;
         }
-        crate::files::relative_uri_path(uri).map_err(|e| ParseError::new(format!("images[{i}]"), e))?;
+        crate::files::relative_uri_path(uri)
+            .map_err(|e| ParseError::new(format!("images[{i}]"), e))?;
     }
     Ok(())
 }

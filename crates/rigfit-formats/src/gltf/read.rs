@@ -10,11 +10,8 @@ use serde_json::Value;
 
 use super::accessor::{element, index_field, read_accessor_as, required_index};
 use super::container::{is_glb, split_glb};
-use super::{GltfDocument, MeshSummary};
+use super::{GltfDocument, LoadUri, MeshSummary};
 use crate::error::{ParseError, coordinate_problem};
-
-/// Supplies the bytes of an external buffer: its URI and declared byteLength.
-pub(super) type LoadUri<'a> = dyn FnMut(&str, usize) -> Result<Vec<u8>, String> + 'a;
 
 pub(super) fn parse(
     bytes: &[u8],
@@ -194,7 +191,12 @@ pub(crate) fn unit_quaternion(r: [f64; 4]) -> Option<Quat> {
     if !(largest > 0.0 && largest.is_finite()) {
         return None;
     }
-    let q = Quaternion::new(r[3] / largest, r[0] / largest, r[1] / largest, r[2] / largest);
+    let q = Quaternion::new(
+        r[3] / largest,
+        r[0] / largest,
+        r[1] / largest,
+        r[2] / largest,
+    );
     Some(Quat::new_normalize(q))
 }
 
