@@ -18,9 +18,15 @@ pub struct InfoArgs {
 }
 
 pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
+    super::check_rig_options(&args.file, args.skin.as_deref(), None)?;
     let text = describe(&args.file, args.skin.as_deref())?;
-    print!("{text}");
-    Ok(())
+    // A reader that stops early (`rigfit info big.glb | head`) is no error.
+    match std::io::Write::write_all(&mut std::io::stdout().lock(), text.as_bytes()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(anyhow::anyhow!("writing to stdout: {e}"))
+        }
+        _ => Ok(()),
+    }
 }
 
 /// The description printed by `rigfit info`.

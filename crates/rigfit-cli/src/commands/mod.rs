@@ -64,7 +64,10 @@ pub fn check_rig_options(
         );
     }
     if skin.is_some() && ext == "bvh" {
-        anyhow::bail!("{}: --skin applies to glTF rigs only (a BVH has no skins)", rig.display());
+        anyhow::bail!(
+            "{}: --skin applies to glTF rigs only (a BVH has no skins)",
+            rig.display()
+        );
     }
     Ok(())
 }

@@ -142,7 +142,10 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
     // place: a failure leaves none of them.
     let mut staged = Vec::new();
     if let Some(out) = &args.output {
-        staged.push(stage(out, &rig_file.pose_bytes(out, &result.pose, args.frame)?)?);
+        staged.push(stage(
+            out,
+            &rig_file.pose_bytes(out, &result.pose, args.frame)?,
+        )?);
     }
     if let Some(report) = &args.report {
         let value = pose_report(

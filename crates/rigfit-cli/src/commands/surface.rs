@@ -351,10 +351,7 @@ fn write_outputs(
         if let Some((_, first)) = frames.first() {
             let options = args.picture.options(first);
             let image = rigfit_render::tracking_sheet(&frames, &stats, &options);
-            staged.push(stage(
-                picture,
-                &super::render::png_bytes(picture, &image)?,
-            )?);
+            staged.push(stage(picture, &super::render::png_bytes(picture, &image)?)?);
         }
     }
     if let Some(report) = &args.report {

@@ -239,10 +239,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
                 rig,
                 truth.as_deref(),
             );
-            staged.push(stage(
-                picture,
-                &super::render::png_bytes(picture, &image)?,
-            )?);
+            staged.push(stage(picture, &super::render::png_bytes(picture, &image)?)?);
         }
         commit_all(staged)?;
         let total: f64 = tracked.iter().map(|t| t.seconds).sum();
