@@ -42,12 +42,15 @@ fn run(args: &[&str]) -> Run {
     } else {
         Command::new(bin)
     };
+    // Output to files (a pipe nobody reads while waiting would block a long output).
+    let out_file = tempfile::NamedTempFile::new().expect("temp file");
+    let err_file = tempfile::NamedTempFile::new().expect("temp file");
     let t0 = Instant::now();
     let mut child = cmd
         .args(args)
         .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
+        .stdout(out_file.reopen().expect("reopen"))
+        .stderr(err_file.reopen().expect("reopen"))
         .spawn()
         .expect("rigfit runs");
     loop {
@@ -61,7 +64,12 @@ fn run(args: &[&str]) -> Run {
         }
         std::thread::sleep(Duration::from_millis(10));
     }
-    let output = child.wait_with_output().expect("output");
+    let status = child.wait().expect("status");
+    let output = Output {
+        status,
+        stdout: std::fs::read(out_file.path()).expect("stdout"),
+        stderr: std::fs::read(err_file.path()).expect("stderr"),
+    };
     let seconds = t0.elapsed().as_secs_f64();
     let rss_kb = std::fs::read_to_string(rss_file.path())
         .ok()
@@ -81,7 +89,11 @@ fn stderr(o: &Output) -> String {
 /// memory.
 fn assert_refused(r: &Run, needle: &str) {
     let err = stderr(&r.output);
-    assert_eq!(r.output.status.code(), Some(2), "exit status; stderr: {err}");
+    assert_eq!(
+        r.output.status.code(),
+        Some(2),
+        "exit status; stderr: {err}"
+    );
     let lines: Vec<&str> = err.lines().collect();
     assert_eq!(lines.len(), 1, "exactly one line: {err}");
     assert!(lines[0].starts_with("rigfit: error: "), "{err}");
@@ -209,7 +221,11 @@ fn gltf_buffer_uris_leave_no_folder_and_read_no_special_file() {
         ("/etc/hostname", 8, "absolute"),
         ("/etc/passwd", 8, "absolute"),
         ("../outside.bin", 64, "leaves the glTF's folder"),
-        ("../../../../../../etc/passwd", 8, "leaves the glTF's folder"),
+        (
+            "../../../../../../etc/passwd",
+            8,
+            "leaves the glTF's folder",
+        ),
         ("sub/../../outside.bin", 64, "leaves the glTF's folder"),
         ("%2e%2e/outside.bin", 64, "leaves the glTF's folder"),
         ("%2E%2E%2Foutside.bin", 64, "leaves the glTF's folder"),
@@ -248,9 +264,14 @@ fn gltf_buffer_uris_leave_no_folder_and_read_no_special_file() {
 fn gltf_image_uris_are_held_to_the_same_rules() {
     let dir = tempfile::tempdir().expect("temp dir");
     std::fs::write(dir.path().join("buf.bin"), vec![1u8; 16]).expect("write");
-    for (k, image) in ["/etc/passwd", "../x.png", "%2e%2e/x.png", "file:///etc/passwd"]
-        .iter()
-        .enumerate()
+    for (k, image) in [
+        "/etc/passwd",
+        "../x.png",
+        "%2e%2e/x.png",
+        "file:///etc/passwd",
+    ]
+    .iter()
+    .enumerate()
     {
         let rig = dir.path().join(format!("img{k}.gltf"));
         std::fs::write(&rig, gltf_with_uri("buf.bin", 16, Some(image))).expect("write");
@@ -295,12 +316,25 @@ fn inputs_must_be_regular_files_of_bounded_size() {
     );
     refused_in(
         d,
-        &["track", s(&rig), s(&huge), s(&d.join("zero.ply")), "-o", s(&out)],
+        &[
+            "track",
+            s(&rig),
+            s(&huge),
+            s(&d.join("zero.ply")),
+            "-o",
+            s(&out),
+        ],
         "bytes",
     );
     refused_in(
         d,
-        &["surface", s(&cloud_of(d)), s(&d.join("fifo.ply")), "-o", s(&d.join("frames"))],
+        &[
+            "surface",
+            s(&cloud_of(d)),
+            s(&d.join("fifo.ply")),
+            "-o",
+            s(&d.join("frames")),
+        ],
         "FIFO",
     );
     refused_in(
@@ -337,12 +371,27 @@ fn outputs_that_are_inputs_or_not_regular_files_are_refused() {
     let cases: Vec<(Vec<String>, &str)> = vec![
         (vec!["-o".into(), s(&rig).into()], "is the input"),
         (vec!["-o".into(), dotted.clone()], "is the input"),
-        (vec!["-o".into(), s(&d.join("hard.bvh")).into()], "is the input"),
-        (vec!["-o".into(), s(&d.join("soft.bvh")).into()], "symbolic link"),
-        (vec!["-o".into(), s(&d.join("null.bvh")).into()], "symbolic link"),
+        (
+            vec!["-o".into(), s(&d.join("hard.bvh")).into()],
+            "is the input",
+        ),
+        (
+            vec!["-o".into(), s(&d.join("soft.bvh")).into()],
+            "symbolic link",
+        ),
+        (
+            vec!["-o".into(), s(&d.join("null.bvh")).into()],
+            "symbolic link",
+        ),
         (vec!["-o".into(), "/dev/null".into()], "device"),
-        (vec!["-o".into(), s(&d.join("dirlink.bvh")).into()], "symbolic link"),
-        (vec!["-o".into(), s(&d.join("folder.bvh")).into()], "directory"),
+        (
+            vec!["-o".into(), s(&d.join("dirlink.bvh")).into()],
+            "symbolic link",
+        ),
+        (
+            vec!["-o".into(), s(&d.join("folder.bvh")).into()],
+            "directory",
+        ),
         (vec!["--report".into(), s(&strokes).into()], "is the input"),
         (vec!["--report".into(), s(&rig).into()], "is the input"),
         (
@@ -385,7 +434,13 @@ fn outputs_that_are_inputs_or_not_regular_files_are_refused() {
     // track and render refuse the same way.
     refused_in(
         d,
-        &["track", s(&rig), s(&d.join("old.json")), "--report", s(&d.join("old.json"))],
+        &[
+            "track",
+            s(&rig),
+            s(&d.join("old.json")),
+            "--report",
+            s(&d.join("old.json")),
+        ],
         "is the input",
     );
     let png = d.join("pic.png");
@@ -406,24 +461,52 @@ fn surface_outdir_rules() {
     std::fs::copy(&mesh, outdir.join("frame_00007.ply")).expect("copy");
     refused_in(
         d,
-        &["surface", s(&mesh), s(&outdir.join("frame_00000.ply")), "-o", s(&outdir)],
+        &[
+            "surface",
+            s(&mesh),
+            s(&outdir.join("frame_00000.ply")),
+            "-o",
+            s(&outdir),
+        ],
         "is the input",
     );
     refused_in(
         d,
-        &["surface", s(&mesh), s(&outdir.join("frame_00007.ply")), "-o", s(&outdir)],
+        &[
+            "surface",
+            s(&mesh),
+            s(&outdir.join("frame_00007.ply")),
+            "-o",
+            s(&outdir),
+        ],
         "is the input",
     );
     // OUTDIR is a file; the reference as OUTDIR.
-    refused_in(d, &["surface", s(&mesh), s(&mesh), "-o", s(&mesh)], "folder");
+    refused_in(
+        d,
+        &["surface", s(&mesh), s(&mesh), "-o", s(&mesh)],
+        "folder",
+    );
     // A link where a frame goes.
     std::fs::remove_file(outdir.join("frame_00000.ply")).expect("rm");
     symlink("/dev/null", &outdir.join("frame_00000.ply"));
-    refused_in(d, &["surface", s(&mesh), s(&mesh), "-o", s(&outdir)], "symbolic link");
+    refused_in(
+        d,
+        &["surface", s(&mesh), s(&mesh), "-o", s(&outdir)],
+        "symbolic link",
+    );
     // --report is a frame.
     refused_in(
         d,
-        &["surface", s(&mesh), s(&mesh), "-o", s(&d.join("new")), "--report", s(&mesh)],
+        &[
+            "surface",
+            s(&mesh),
+            s(&mesh),
+            "-o",
+            s(&d.join("new")),
+            "--report",
+            s(&mesh),
+        ],
         "is the input",
     );
     assert!(!d.join("new").exists(), "no OUTDIR made");
@@ -459,7 +542,15 @@ fn absurd_frames_and_options_are_bounded() {
     for frame in ["100000000", "1000001", "18446744073709551615"] {
         refused_in(
             d,
-            &["pose", s(&rig), s(&strokes), "-o", s(&out), "--frame", frame],
+            &[
+                "pose",
+                s(&rig),
+                s(&strokes),
+                "-o",
+                s(&out),
+                "--frame",
+                frame,
+            ],
             "frame",
         );
     }
@@ -473,15 +564,33 @@ fn absurd_frames_and_options_are_bounded() {
     for fps in ["1e-300", "0", "nan", "1e300"] {
         refused_in(
             d,
-            &["track", s(&rig), s(&cloud), "-o", s(&out), &format!("--fps={fps}")],
+            &[
+                "track",
+                s(&rig),
+                s(&cloud),
+                "-o",
+                s(&out),
+                &format!("--fps={fps}"),
+            ],
             "--fps",
         );
     }
-    for (flag, v) in [("--iterations", "100000000"), ("--iterations", "0"), ("--coarse", "100000000")]
-    {
+    for (flag, v) in [
+        ("--iterations", "100000000"),
+        ("--iterations", "0"),
+        ("--coarse", "100000000"),
+    ] {
         refused_in(
             d,
-            &["surface", s(&cloud), s(&cloud), "-o", s(&d.join("f")), flag, v],
+            &[
+                "surface",
+                s(&cloud),
+                s(&cloud),
+                "-o",
+                s(&d.join("f")),
+                flag,
+                v,
+            ],
             flag,
         );
     }
@@ -545,7 +654,10 @@ fn extreme_numbers_say_what_is_wrong() {
     let doc = rigfit_formats::gltf::read_gltf(&path, None).expect("reads");
     let q = doc.rig.expect("rig").pose.local[0].rotation;
     let half = std::f64::consts::FRAC_1_SQRT_2;
-    assert!((q.i - half).abs() < 1e-12 && (q.j - half).abs() < 1e-12, "{q:?}");
+    assert!(
+        (q.i - half).abs() < 1e-12 && (q.j - half).abs() < 1e-12,
+        "{q:?}"
+    );
 }
 
 #[test]
@@ -572,7 +684,9 @@ fn deep_bvh(depth: usize) -> String {
     let mut t = String::with_capacity(depth * 60);
     t.push_str("HIERARCHY\nROOT j0\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\n");
     for i in 1..depth {
-        t.push_str(&format!("JOINT j{i}\n{{\nOFFSET 0 1 0\nCHANNELS 1 Zrotation\n"));
+        t.push_str(&format!(
+            "JOINT j{i}\n{{\nOFFSET 0 1 0\nCHANNELS 1 Zrotation\n"
+        ));
     }
     for _ in 0..depth {
         t.push_str("}\n");
@@ -590,7 +704,9 @@ fn wide_bvh(width: usize) -> String {
     let mut t = String::with_capacity(width * 60);
     t.push_str("HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\n");
     for i in 0..width {
-        t.push_str(&format!("JOINT c{i}\n{{\nOFFSET {i} 1 0\nCHANNELS 1 Zrotation\n}}\n"));
+        t.push_str(&format!(
+            "JOINT c{i}\n{{\nOFFSET {i} 1 0\nCHANNELS 1 Zrotation\n}}\n"
+        ));
     }
     t.push_str("}\nMOTION\nFrames: 1\nFrame Time: 0.04\n0 0 0");
     for _ in 0..width {
@@ -609,7 +725,10 @@ fn many_joint_gltf(n: usize, chain: bool) -> String {
             t.push(',');
         }
         if chain && i + 1 < n {
-            t.push_str(&format!(r#"{{"name":"j{i}","translation":[0,1,0],"children":[{}]}}"#, i + 1));
+            t.push_str(&format!(
+                r#"{{"name":"j{i}","translation":[0,1,0],"children":[{}]}}"#,
+                i + 1
+            ));
         } else if !chain && i == 0 {
             t.push_str(r#"{"name":"j0","children":["#);
             for c in 1..n {
@@ -639,9 +758,17 @@ fn info_in_time(path: &Path, joints: usize) -> Run {
     assert_eq!(r.output.status.code(), Some(0), "{}", stderr(&r.output));
     assert_within_limits(&r);
     let text = String::from_utf8_lossy(&r.output.stdout);
-    assert!(text.contains(&format!("joints: {joints}")), "{}", &text[..text.len().min(400)]);
+    assert!(
+        text.contains(&format!("joints: {joints}")),
+        "{}",
+        &text[..text.len().min(400)]
+    );
     // Linear output: indentation stops growing.
-    assert!(text.len() < 200 * joints + 10_000, "{} bytes of output", text.len());
+    assert!(
+        text.len() < 200 * joints + 10_000,
+        "{} bytes of output",
+        text.len()
+    );
     r
 }
 
@@ -652,19 +779,31 @@ fn deep_and_wide_joint_trees_take_near_linear_time() {
     let deep = d.join("deep.bvh");
     std::fs::write(&deep, deep_bvh(50_000)).expect("write");
     let r = info_in_time(&deep, 50_000);
-    eprintln!("info, 50,000-deep BVH chain: {:.2} s, {:?} KiB", r.seconds, r.rss_kb);
+    eprintln!(
+        "info, 50,000-deep BVH chain: {:.2} s, {:?} KiB",
+        r.seconds, r.rss_kb
+    );
     let wide = d.join("wide.bvh");
     std::fs::write(&wide, wide_bvh(100_000)).expect("write");
     let r = info_in_time(&wide, 100_001);
-    eprintln!("info, 100,000-wide BVH: {:.2} s, {:?} KiB", r.seconds, r.rss_kb);
+    eprintln!(
+        "info, 100,000-wide BVH: {:.2} s, {:?} KiB",
+        r.seconds, r.rss_kb
+    );
     let chain = d.join("chain.gltf");
     std::fs::write(&chain, many_joint_gltf(50_000, true)).expect("write");
     let r = info_in_time(&chain, 50_000);
-    eprintln!("info, 50,000-deep glTF chain: {:.2} s, {:?} KiB", r.seconds, r.rss_kb);
+    eprintln!(
+        "info, 50,000-deep glTF chain: {:.2} s, {:?} KiB",
+        r.seconds, r.rss_kb
+    );
     let fan = d.join("fan.gltf");
     std::fs::write(&fan, many_joint_gltf(200_000, false)).expect("write");
     let r = info_in_time(&fan, 200_000);
-    eprintln!("info, glTF with 200,000 skin joints: {:.2} s, {:?} KiB", r.seconds, r.rss_kb);
+    eprintln!(
+        "info, glTF with 200,000 skin joints: {:.2} s, {:?} KiB",
+        r.seconds, r.rss_kb
+    );
 }
 
 // ---------------------------------------------------------------- argument errors
@@ -688,9 +827,19 @@ fn argument_errors_are_one_line_and_help_still_works() {
     ];
     for args in cases {
         let r = refused_in(d, args, "");
-        assert!(stderr(&r.output).contains("rigfit --help"), "{}", stderr(&r.output));
+        assert!(
+            stderr(&r.output).contains("rigfit --help"),
+            "{}",
+            stderr(&r.output)
+        );
     }
-    for help in [&["--help"][..], &["pose", "--help"], &["-h"], &["--version"], &["-V"]] {
+    for help in [
+        &["--help"][..],
+        &["pose", "--help"],
+        &["-h"],
+        &["--version"],
+        &["-V"],
+    ] {
         let r = run(help);
         assert_eq!(r.output.status.code(), Some(0), "{help:?}");
         assert!(!r.output.stdout.is_empty());

@@ -587,7 +587,7 @@ fn sample_strokes() -> Vec<Stroke> {
         },
         Stroke {
             points: vec![
-                Point3::new(-1.0 / 3.0, 1e-300, 5e300),
+                Point3::new(-1.0 / 3.0, 1e-300, 1e12 - 0.0625),
                 Point3::new(0.0, -0.0, 2.0),
                 Point3::new(7.0, 8.0, 9.5),
             ],
