@@ -125,6 +125,9 @@ fn snapshot(dir: &Path) -> BTreeMap<PathBuf, u64> {
             if meta.is_dir() {
                 todo.push(path.clone());
                 "dir".hash(&mut h);
+            } else if meta.is_file() && meta.len() > 64 << 20 {
+                // A big sparse file: its length and time stand for its bytes.
+                (meta.len(), meta.modified().ok()).hash(&mut h);
             } else if meta.is_file() {
                 std::fs::read(&path).expect("read").hash(&mut h);
             } else if meta.file_type().is_symlink() {
@@ -510,6 +513,55 @@ fn surface_outdir_rules() {
         "is the input",
     );
     assert!(!d.join("new").exists(), "no OUTDIR made");
+}
+
+#[test]
+fn surface_removes_an_earlier_runs_extra_frames_only_after_success() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let mesh = data("bunny/bunny.ply");
+    let outdir = d.join("out");
+    let ok = |frames: usize| {
+        let mut args = vec!["surface", s(&mesh)];
+        args.extend(std::iter::repeat_n(s(&mesh), frames));
+        args.extend(["-o", s(&outdir), "--iterations", "2"]);
+        let r = run(&args);
+        assert_eq!(r.output.status.code(), Some(0), "{}", stderr(&r.output));
+    };
+    ok(3);
+    std::fs::write(outdir.join("notes.txt"), "mine").expect("write");
+    std::fs::write(outdir.join("frame_1.ply"), "not an output name").expect("write");
+    // A failing run (a bad frame) leaves the earlier frames as they were.
+    let bad = d.join("bad.ply");
+    std::fs::write(&bad, "ply\nformat ascii 1.0\nend_header\n").expect("write");
+    refused_in(
+        d,
+        &["surface", s(&mesh), s(&mesh), s(&bad), "-o", s(&outdir)],
+        "bad.ply",
+    );
+    ok(1);
+    let mut names: Vec<String> = std::fs::read_dir(&outdir)
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["frame_00000.ply", "frame_1.ply", "notes.txt"]);
+}
+
+#[test]
+fn an_output_of_an_unknown_type_is_refused_before_solving() {
+    let (dir, rig, strokes) = rig_dir();
+    let d = dir.path();
+    refused_in(
+        d,
+        &["pose", s(&rig), s(&strokes), "-o", s(&d.join("out.txt"))],
+        "unsupported",
+    );
+    refused_in(
+        d,
+        &["pose", s(&rig), s(&strokes), "-o", s(&d.join("out.gltf"))],
+        "unsupported",
+    );
 }
 
 #[test]

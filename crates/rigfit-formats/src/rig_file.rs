@@ -308,6 +308,15 @@ impl RigFile {
         }
     }
 
+    /// Checks, before any work, that `out`'s extension names a format this rig can be
+    /// written in (the formats of [`Self::pose_bytes`] and [`Self::poses_bytes`]).
+    pub fn check_output_format(&self, out: &Path) -> Result<(), FormatError> {
+        match (RigFormat::from_path(out), &self.source) {
+            (Some(_), RigSource::Gltf(_)) | (Some(RigFormat::Bvh | RigFormat::Glb), _) => Ok(()),
+            _ => Err(self.unsupported_output(out)),
+        }
+    }
+
     fn unsupported_output(&self, out: &Path) -> FormatError {
         FormatError::Unsupported {
             path: out.to_path_buf(),

@@ -116,6 +116,12 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
     let mut inputs: Vec<&Path> = rig_inputs.iter().map(PathBuf::as_path).collect();
     inputs.push(&args.strokes);
     super::check_files(&inputs, &outputs)?;
+    if let Some(out) = &args.output {
+        rig_file.check_output_format(out)?;
+    }
+    if let Some(out) = &args.output {
+        rig_file.check_output_format(out)?;
+    }
     if let (Some(out), Some(n)) = (&args.output, args.frame) {
         rig_file.check_frame(out, n)?;
     }

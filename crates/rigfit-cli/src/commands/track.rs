@@ -156,6 +156,9 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let rig_inputs = super::rig_inputs(&rig_file);
     inputs.extend(rig_inputs.iter().map(PathBuf::as_path));
     super::check_files(&inputs, &outputs)?;
+    if let Some(out) = &args.output {
+        rig_file.check_output_format(out)?;
+    }
     let rig = &rig_file.rig;
     let mut options = match args.method {
         TrackMethod::Rigfit => TrackOptions::default(),
