@@ -687,6 +687,14 @@ fn extreme_numbers_say_what_is_wrong() {
     let path = d.join("ring.gltf");
     std::fs::write(&path, ring.to_string()).expect("write");
     refused_in(d, &["info", s(&path)], "joint cycle");
+    let own = serde_json::json!({
+        "asset": { "version": "2.0" },
+        "nodes": [ { "name": "a", "children": [0] } ],
+        "skins": [ { "joints": [0] } ]
+    });
+    let path = d.join("own.gltf");
+    std::fs::write(&path, own.to_string()).expect("write");
+    refused_in(d, &["info", s(&path)], "joint cycle");
     let far = serde_json::json!({
         "asset": { "version": "2.0" },
         "nodes": [ { "name": "a", "translation": [1e200, 0, 0] } ],

@@ -219,7 +219,13 @@ fn node_parents(json: &Value) -> Result<Vec<Option<usize>>, ParseError> {
                 .map(|c| c as usize)
                 .filter(|&c| c < nodes.len())
                 .ok_or_else(|| ParseError::new(&place, "not a valid node index"))?;
-            if c == i || parents[c].is_some() {
+            if c == i {
+                return Err(ParseError::new(
+                    &place,
+                    format!("joint cycle: node {c} lists itself as a child"),
+                ));
+            }
+            if parents[c].is_some() {
                 return Err(ParseError::new(
                     &place,
                     format!("node {c} has more than one parent"),
@@ -471,6 +477,16 @@ fn read_skinned_mesh(
                     return Err(ParseError::new(
                         format!("accessors[{a}]"),
                         "NORMAL count differs from POSITION count",
+                    ));
+                }
+                if let Some((i, problem)) = nrm.chunks(3).enumerate().find_map(|(i, c)| {
+                    c.iter()
+                        .find_map(|&v| coordinate_problem(v))
+                        .map(|p| (i, p))
+                }) {
+                    return Err(ParseError::new(
+                        format!("accessors[{a}]"),
+                        format!("normal {i}: {problem}"),
                     ));
                 }
                 normals.extend(nrm.chunks(3).map(|c| Vector3::new(c[0], c[1], c[2])));
