@@ -128,3 +128,66 @@ fn deep_bvh_chains_write_in_linear_size() {
     assert!(out.len() < 300 * depth, "{} bytes", out.len());
     assert!(t0.elapsed() < Duration::from_secs(5), "{:?}", t0.elapsed());
 }
+
+/// A glTF chain of `n` skin joints, no buffers.
+fn chain_gltf(n: usize) -> String {
+    let nodes: Vec<String> = (0..n)
+        .map(|i| {
+            if i + 1 < n {
+                format!(
+                    r#"{{"name":"j{i}","translation":[0,1,0],"children":[{}]}}"#,
+                    i + 1
+                )
+            } else {
+                format!(r#"{{"name":"j{i}","translation":[0,1,0]}}"#)
+            }
+        })
+        .collect();
+    let joints: Vec<String> = (0..n).map(|i| i.to_string()).collect();
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"nodes":[{}],"skins":[{{"joints":[{}]}}]}}"#,
+        nodes.join(","),
+        joints.join(",")
+    )
+}
+
+#[test]
+fn deep_rigs_convert_between_formats_in_near_linear_time() {
+    use rigfit_formats::rig_file::{RigOptions, read_rig};
+    let depth = 20_000;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let gltf = dir.path().join("chain.gltf");
+    std::fs::write(&gltf, chain_gltf(depth)).expect("write");
+    let t0 = Instant::now();
+    let rig = read_rig(&gltf, &RigOptions::default()).expect("reads");
+    let pose = rig.rig.pose.clone();
+    let as_bvh = rig
+        .pose_bytes(&dir.path().join("o.bvh"), &pose, None)
+        .expect("to BVH");
+    let as_glb = rig
+        .poses_bytes(&dir.path().join("o.glb"), &[pose.clone(), pose], 24.0)
+        .expect("to GLB");
+    let bvh_path = dir.path().join("chain.bvh");
+    std::fs::write(&bvh_path, &as_bvh).expect("write");
+    let bvh = read_rig(&bvh_path, &RigOptions::default()).expect("reads back");
+    assert!(
+        bvh.rig.skeleton.len() >= depth,
+        "{}",
+        bvh.rig.skeleton.len()
+    );
+    let pose = bvh.rig.pose.clone();
+    bvh.pose_bytes(&dir.path().join("b.glb"), &pose, None)
+        .expect("BVH to GLB");
+    bvh.pose_bytes(&dir.path().join("b.bvh"), &pose, Some(5))
+        .expect("BVH keyed");
+    let report = rigfit_formats::report::pose_report(&bvh.rig, &pose, &[], 0, 0.0, 0.0);
+    assert!(
+        report["joints"]
+            .as_array()
+            .is_some_and(|j| j.len() >= depth)
+    );
+    assert!(!as_glb.is_empty());
+    let seconds = t0.elapsed().as_secs_f64();
+    eprintln!("{depth}-deep chain: read, to BVH, to GLB, back, report in {seconds:.2} s");
+    assert!(seconds < 5.0, "{seconds:.2} s");
+}
