@@ -866,6 +866,26 @@ fn deep_and_wide_joint_trees_take_near_linear_time() {
     );
 }
 
+#[test]
+fn a_million_joints_is_refused_quickly() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let fan = d.join("fan.gltf");
+    std::fs::write(&fan, many_joint_gltf(1_000_000, false)).expect("write");
+    let r = refused_in(d, &["info", s(&fan)], "too many");
+    eprintln!(
+        "info, glTF with 1,000,000 skin joints: refused in {:.2} s, {:?} KiB",
+        r.seconds, r.rss_kb
+    );
+    let wide = d.join("wide.bvh");
+    std::fs::write(&wide, wide_bvh(1_000_000)).expect("write");
+    let r = refused_in(d, &["info", s(&wide)], "too many");
+    eprintln!(
+        "info, 1,000,000-wide BVH: refused in {:.2} s, {:?} KiB",
+        r.seconds, r.rss_kb
+    );
+}
+
 // ---------------------------------------------------------------- argument errors
 
 #[test]

@@ -911,6 +911,12 @@ fn begin_joint(
     keyword: &str,
     line: usize,
 ) -> Result<usize, ParseError> {
+    if joints.len() >= crate::error::MAX_JOINTS {
+        return Err(crate::error::too_many_joints(
+            format!("line {line}"),
+            joints.len() + 1,
+        ));
+    }
     let mut name = lx.rest_of_line().trim();
     let mut brace = false;
     if let Some(stripped) = name.strip_suffix('{') {
@@ -1183,6 +1189,12 @@ fn parse_hierarchy(lx: &mut Lexer<'_>) -> Result<Vec<BvhJoint>, ParseError> {
                         "unexpected end of file after End Site (the file is truncated)",
                     ));
                 }
+            }
+            if joints.len() >= crate::error::MAX_JOINTS {
+                return Err(crate::error::too_many_joints(
+                    format!("line {line}"),
+                    joints.len() + 1,
+                ));
             }
             joints.push(BvhJoint {
                 name: String::new(),

@@ -91,6 +91,19 @@ pub fn extension(path: &Path) -> String {
         .unwrap_or_default()
 }
 
+/// The most joints a rig may have (a glTF skeleton's nodes, a BVH's joints and End Sites):
+/// rigs have hundreds; past this bound a file is refused with one line instead of taking
+/// seconds and gigabytes.
+pub const MAX_JOINTS: usize = 250_000;
+
+/// The error of a rig with more than [`MAX_JOINTS`] joints.
+pub fn too_many_joints(place: impl Into<String>, count: usize) -> ParseError {
+    ParseError::new(
+        place,
+        format!("{count} joints is too many (rigfit reads rigs of at most {MAX_JOINTS} joints)"),
+    )
+}
+
 /// The largest coordinate magnitude rigfit reads (positions, offsets, translations, scales,
 /// motion values): beyond it, squares and sums of squares lose all meaning or overflow.
 pub const MAX_COORDINATE: f64 = 1e12;

@@ -23,6 +23,25 @@ pub(super) fn parse(
     } else {
         (bytes, None)
     };
+    // The node count first, by a pass that builds nothing: a JSON tree costs about a
+    // kilobyte a node, so a file of millions of nodes is refused before it is built.
+    #[derive(serde::Deserialize)]
+    struct Shape {
+        #[serde(default)]
+        nodes: Vec<serde::de::IgnoredAny>,
+    }
+    if let Ok(shape) = serde_json::from_slice::<Shape>(json_bytes) {
+        if shape.nodes.len() > crate::error::MAX_JOINTS {
+            return Err(ParseError::new(
+                "nodes",
+                format!(
+                    "{} nodes is too many (rigfit reads glTF files of at most {} nodes)",
+                    shape.nodes.len(),
+                    crate::error::MAX_JOINTS
+                ),
+            ));
+        }
+    }
     let json: Value = serde_json::from_slice(json_bytes).map_err(|e| {
         ParseError::new(
             format!("JSON line {} column {}", e.line(), e.column()),
@@ -276,10 +295,17 @@ fn build_rig(
         .and_then(Value::as_array)
         .map(Vec::as_slice)
         .unwrap_or(&[]);
-    let skin_joints: Vec<usize> = skin
+    let listed = skin
         .get("joints")
         .and_then(Value::as_array)
-        .ok_or_else(|| ParseError::new(&skin_path, "missing 'joints'"))?
+        .ok_or_else(|| ParseError::new(&skin_path, "missing 'joints'"))?;
+    if listed.len() > crate::error::MAX_JOINTS {
+        return Err(crate::error::too_many_joints(
+            format!("{skin_path}.joints"),
+            listed.len(),
+        ));
+    }
+    let skin_joints: Vec<usize> = listed
         .iter()
         .enumerate()
         .map(|(k, j)| {
@@ -316,6 +342,12 @@ fn build_rig(
         }
     }
     let skeleton_nodes: Vec<usize> = (0..nodes.len()).filter(|&n| in_skeleton[n]).collect();
+    if skeleton_nodes.len() > crate::error::MAX_JOINTS {
+        return Err(crate::error::too_many_joints(
+            &skin_path,
+            skeleton_nodes.len(),
+        ));
+    }
     let mut local_of_node = vec![usize::MAX; nodes.len()];
     for (k, &n) in skeleton_nodes.iter().enumerate() {
         local_of_node[n] = k;
