@@ -628,9 +628,29 @@ fn absurd_frames_and_options_are_bounded() {
         );
     }
     for (flag, v) in [
+        ("--noise", "1e-300"),
+        ("--noise", "1e300"),
+        ("--max-motion", "1e300"),
+    ] {
+        refused_in(
+            d,
+            &[
+                "track",
+                s(&rig),
+                s(&cloud),
+                "-o",
+                s(&out),
+                &format!("{flag}={v}"),
+            ],
+            flag,
+        );
+    }
+    for (flag, v) in [
         ("--iterations", "100000000"),
         ("--iterations", "0"),
         ("--coarse", "100000000"),
+        ("--patch-radius", "1e-300"),
+        ("--patch-radius", "1e300"),
     ] {
         refused_in(
             d,

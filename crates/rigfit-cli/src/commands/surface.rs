@@ -187,8 +187,11 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
     options.max_iterations = args.iterations;
     options.merge_cell = args.merge;
     options.coarse_stride = args.coarse;
-    if !(options.patches.radius > 0.0 && options.patches.radius.is_finite()) {
-        return Err(anyhow!("--patch-radius: expected a positive fraction"));
+    if !(1e-4..=10.0).contains(&options.patches.radius) {
+        return Err(anyhow!(
+            "--patch-radius: expected a fraction of the diagonal from 0.0001 to 10, got {}",
+            options.patches.radius
+        ));
     }
     if !(0.0..1.0).contains(&options.data.outlier_ratio) {
         return Err(anyhow!("--outliers: expected a fraction in [0, 1)"));

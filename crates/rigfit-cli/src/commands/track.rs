@@ -125,9 +125,10 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     if let Some(picture) = &args.render {
         super::render::check_png_path(picture)?;
     }
-    if !(args.noise.is_finite() && args.noise > 0.0) {
+    // Fractions of the height; past these bounds the kernels and grids lose all meaning.
+    if !(1e-6..=1.0).contains(&args.noise) {
         bail!(
-            "--noise: expected a positive fraction of the height, got {}",
+            "--noise: expected a fraction of the height from 0.000001 to 1, got {}",
             args.noise
         );
     }
@@ -166,8 +167,10 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     };
     options.noise = args.noise;
     if let Some(m) = args.max_motion {
-        if !(m.is_finite() && m > 0.0) {
-            bail!("--max-motion: expected a positive fraction of the height, got {m}");
+        if !(m > 0.0 && m <= 10.0) {
+            bail!(
+                "--max-motion: expected a fraction of the height above 0 and at most 10, got {m}"
+            );
         }
         options.max_motion = m.max(args.noise);
     }
