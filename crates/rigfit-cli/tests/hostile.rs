@@ -757,6 +757,18 @@ fn rig_options_that_do_not_apply_are_refused() {
     );
 }
 
+#[test]
+fn warnings_name_their_file() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("rows.bvh");
+    std::fs::write(&path, small_bvh().replace("Frames: 3", "Frames: 5")).expect("write");
+    let r = run(&["info", s(&path)]);
+    let err = stderr(&r.output);
+    assert_eq!(r.output.status.code(), Some(0), "{err}");
+    assert!(err.contains("WARN") && err.contains("rows.bvh"), "{err}");
+    assert!(!err.contains('\x1b'), "no colour codes in a file: {err:?}");
+}
+
 // ---------------------------------------------------------------- deep and wide trees
 
 /// A BVH chain `depth` joints deep (each one channel), one frame.
