@@ -720,6 +720,18 @@ const MALFORMED: &[(&str, &[&str])] = &[
         &["strokes[0].bones[1]", "bone name"],
     ),
     ("strokes_not_object.json", &["top level", "\"strokes\""]),
+    (
+        "strokes_huge_coordinate.json",
+        &["strokes[0].points[0]", "too large", "out of range"],
+    ),
+    (
+        "obj_huge_coordinate.obj",
+        &["line 1", "too large", "out of range"],
+    ),
+    (
+        "ply_huge_coordinate.ply",
+        &["vertex 0", "too large", "out of range"],
+    ),
 ];
 
 fn read_any(path: &Path) -> Result<(), FormatError> {
