@@ -94,12 +94,18 @@ fn one_line(e: &clap::Error) -> String {
     if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
         return "a command is required (see rigfit --help)".into();
     }
+    // The first paragraph (a missing-arguments message lists them on the lines below).
     let text = e.render().to_string();
-    let first = text
+    let first: Vec<&str> = text
         .lines()
         .map(str::trim)
-        .find(|l| !l.is_empty())
-        .unwrap_or("invalid arguments");
-    let first = first.strip_prefix("error:").unwrap_or(first).trim();
+        .skip_while(|l| l.is_empty())
+        .take_while(|l| !l.is_empty())
+        .collect();
+    let first = first.join(" ");
+    let first = first.strip_prefix("error:").unwrap_or(&first).trim();
+    if first.is_empty() {
+        return "invalid arguments (see rigfit --help)".into();
+    }
     format!("{first} (see rigfit --help)")
 }

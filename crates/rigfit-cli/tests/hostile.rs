@@ -945,6 +945,9 @@ fn argument_errors_are_one_line_and_help_still_works() {
             stderr(&r.output)
         );
     }
+    // The missing arguments are named on the one line.
+    let r = refused_in(d, &["pose"], "<RIG> <STROKES>");
+    assert!(stderr(&r.output).contains("not provided"));
     for help in [
         &["--help"][..],
         &["pose", "--help"],
