@@ -530,6 +530,21 @@ fn surface_removes_an_earlier_runs_extra_frames_only_after_success() {
         assert_eq!(r.output.status.code(), Some(0), "{}", stderr(&r.output));
     };
     ok(3);
+    // A report inside an OUTDIR the run makes.
+    let fresh = d.join("fresh");
+    let r = run(&[
+        "surface",
+        s(&mesh),
+        s(&mesh),
+        "-o",
+        s(&fresh),
+        "--iterations",
+        "2",
+        "--report",
+        s(&fresh.join("report.json")),
+    ]);
+    assert_eq!(r.output.status.code(), Some(0), "{}", stderr(&r.output));
+    assert!(fresh.join("report.json").is_file() && fresh.join("frame_00000.ply").is_file());
     std::fs::write(outdir.join("notes.txt"), "mine").expect("write");
     std::fs::write(outdir.join("frame_1.ply"), "not an output name").expect("write");
     // A failing run (a bad frame) leaves the earlier frames as they were.

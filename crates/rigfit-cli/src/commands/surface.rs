@@ -163,10 +163,12 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
     let mut inputs: Vec<&Path> = vec![&args.mesh];
     inputs.extend(args.frames.iter().map(PathBuf::as_path));
     inputs.extend(args.truth.iter().flatten().map(PathBuf::as_path));
+    // A report or picture inside an OUTDIR not made yet is checked when it is written.
     let mut outputs: Vec<&Path> = [&args.report, &args.render]
         .into_iter()
         .flatten()
         .map(PathBuf::as_path)
+        .filter(|p| outdir_exists || p.parent() != Some(outdir.as_path()))
         .collect();
     if outdir_exists {
         outputs.extend(frame_outputs.iter().map(PathBuf::as_path));
