@@ -5,6 +5,7 @@ mod commands;
 
 use std::process::ExitCode;
 
+use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
 
 /// Fits skeletons and deformable surfaces to 3D data: strokes, point clouds, scans.
@@ -39,13 +40,18 @@ fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
         .with_target(false)
+        // No colour codes in a log file or a pipe.
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .without_time()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_env("RIGFIT_LOG")
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
         )
         .init();
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return argument_error(&e),
+    };
     let result = match cli.command {
         Command::Pose(args) => commands::pose::run(&args),
         Command::Track(args) => commands::track::run(&args),
@@ -65,4 +71,41 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// `--help` and `--version` print as clap prints them (exit 0); every other argument error
+/// is one line, `rigfit: error: ...`, with exit status 2.
+fn argument_error(e: &clap::Error) -> ExitCode {
+    match e.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+            // Printing to stdout failing (a closed pipe) is no error worth a message.
+            let _ = e.print();
+            ExitCode::SUCCESS
+        }
+        _ => {
+            eprintln!("rigfit: error: {}", one_line(e));
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// The first line of clap's message without its `error: ` prefix, and a pointer to `--help`.
+fn one_line(e: &clap::Error) -> String {
+    if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+        return "a command is required (see rigfit --help)".into();
+    }
+    // The first paragraph (a missing-arguments message lists them on the lines below).
+    let text = e.render().to_string();
+    let first: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .skip_while(|l| l.is_empty())
+        .take_while(|l| !l.is_empty())
+        .collect();
+    let first = first.join(" ");
+    let first = first.strip_prefix("error:").unwrap_or(&first).trim();
+    if first.is_empty() {
+        return "invalid arguments (see rigfit --help)".into();
+    }
+    format!("{first} (see rigfit --help)")
 }

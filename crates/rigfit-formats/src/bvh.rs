@@ -23,7 +23,7 @@ use rigfit_core::{
     Quat, Rig, Skeleton, SkeletonError, Trs, Vector3,
 };
 
-use crate::error::{FormatError, ParseError, read_bytes, write_atomic};
+use crate::error::{FormatError, MAX_COORDINATE, ParseError, read_bytes, write_atomic};
 
 /// One channel of a BVH joint: a translation or a rotation (degrees) along an axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -156,6 +156,7 @@ pub struct BvhDocument {
 /// Reads a BVH file.
 pub fn read_bvh(path: &Path) -> Result<BvhDocument, FormatError> {
     let bytes = read_bytes(path)?;
+    let _span = tracing::warn_span!("reading", file = %path.display()).entered();
     parse_bvh(&bytes).map_err(|e| FormatError::parse(path, e))
 }
 
@@ -315,7 +316,7 @@ impl BvhDocument {
             })
             .collect();
         let mut skeleton = Skeleton::new(joints)?;
-        skeleton.set_default_dofs();
+        crate::dofs::set_default_dofs(&mut skeleton);
         Ok(skeleton)
     }
 
@@ -751,11 +752,16 @@ fn euler3(rot: &Quat, [i, j, k]: [usize; 3]) -> [f64; 3] {
     [a, b, c]
 }
 
+/// Indentation of a hierarchy line: one tab per level up to [`MAX_INDENT`] (readers ignore
+/// it; capped so that a deep chain's file grows linearly with its depth).
 fn indent(out: &mut String, depth: usize) {
-    for _ in 0..depth {
+    for _ in 0..depth.min(MAX_INDENT) {
         out.push('\t');
     }
 }
+
+/// The deepest indentation the writer uses.
+const MAX_INDENT: usize = 32;
 
 /// A joint name that reads back as one line.
 fn clean_name(name: &str, index: usize) -> String {
@@ -905,6 +911,12 @@ fn begin_joint(
     keyword: &str,
     line: usize,
 ) -> Result<usize, ParseError> {
+    if joints.len() >= crate::error::MAX_JOINTS {
+        return Err(crate::error::too_many_joints(
+            format!("line {line}"),
+            joints.len() + 1,
+        ));
+    }
     let mut name = lx.rest_of_line().trim();
     let mut brace = false;
     if let Some(stripped) = name.strip_suffix('{') {
@@ -959,7 +971,14 @@ fn read_offset_number(lx: &mut Lexer<'_>, what: &str) -> Result<f64, ParseError>
             format!("unexpected end of file in the OFFSET of {what} (the file is truncated)"),
         )),
         Some((tok, line)) => match tok.parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(v),
+            Ok(v) if v.is_finite() && v.abs() <= MAX_COORDINATE => Ok(v),
+            Ok(v) if v.is_finite() => Err(ParseError::at_line(
+                line,
+                format!(
+                    "OFFSET of {what}: {} is too large (out of range: at most 1e12 in magnitude)",
+                    quote(tok)
+                ),
+            )),
             Ok(_) => Err(ParseError::at_line(
                 line,
                 format!("OFFSET of {what}: {} is not a finite number", quote(tok)),
@@ -1171,6 +1190,12 @@ fn parse_hierarchy(lx: &mut Lexer<'_>) -> Result<Vec<BvhJoint>, ParseError> {
                     ));
                 }
             }
+            if joints.len() >= crate::error::MAX_JOINTS {
+                return Err(crate::error::too_many_joints(
+                    format!("line {line}"),
+                    joints.len() + 1,
+                ));
+            }
             joints.push(BvhJoint {
                 name: String::new(),
                 parent: Some(index),
@@ -1340,12 +1365,14 @@ fn parse_motion(
         let mut values = Vec::with_capacity(count);
         for (k, tok) in row.split_ascii_whitespace().enumerate() {
             match tok.parse::<f64>() {
-                Ok(v) if v.is_finite() => values.push(v),
+                Ok(v) if v.is_finite() && v.abs() <= MAX_COORDINATE => values.push(v),
                 parsed => {
-                    let what = if parsed.is_ok() {
-                        "is not a finite number"
-                    } else {
-                        "is not a number"
+                    let what = match parsed {
+                        Ok(v) if v.is_finite() => {
+                            "is too large (out of range: at most 1e12 in magnitude)"
+                        }
+                        Ok(_) => "is not a finite number",
+                        Err(_) => "is not a number",
                     };
                     return Err(ParseError::at_line(
                         line,

@@ -71,29 +71,17 @@ impl FormatError {
     }
 }
 
-/// Reads a whole file, naming it in the error.
+/// Reads a whole input file, naming it in the error: a regular file (not a FIFO, device or
+/// directory) of at most [`crate::files::MAX_INPUT_BYTES`].
 pub fn read_bytes(path: &Path) -> Result<Vec<u8>, FormatError> {
-    std::fs::read(path).map_err(|e| FormatError::io(path, e))
+    crate::files::read_input(path)
 }
 
-/// Writes a file atomically: the bytes go to a temporary file beside it, which is then
-/// renamed over the target, so a failure never leaves a half-written file.
+/// Writes a file atomically: the bytes go to an exclusively created temporary file with a
+/// random name beside it, which is then renamed over the target, so a failure never leaves a
+/// half-written file. A target that is a symbolic link or not a regular file is refused.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FormatError> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let tmp = dir.join(format!(".{name}.rigfit-tmp-{}", std::process::id()));
-    let result = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(FormatError::io(path, e));
-    }
-    Ok(())
+    crate::files::write_atomic(path, bytes)
 }
 
 /// The lower-case extension of a path ("" when none).
@@ -103,18 +91,45 @@ pub fn extension(path: &Path) -> String {
         .unwrap_or_default()
 }
 
-/// Checks that every coordinate is finite; names the first point (`what` and index) that is
-/// not.
+/// The most joints a rig may have (a glTF skeleton's nodes, a BVH's joints and End Sites):
+/// rigs have hundreds; past this bound a file is refused with one line instead of taking
+/// seconds and gigabytes.
+pub const MAX_JOINTS: usize = 250_000;
+
+/// The error of a rig with more than [`MAX_JOINTS`] joints.
+pub fn too_many_joints(place: impl Into<String>, count: usize) -> ParseError {
+    ParseError::new(
+        place,
+        format!("{count} joints is too many (rigfit reads rigs of at most {MAX_JOINTS} joints)"),
+    )
+}
+
+/// The largest coordinate magnitude rigfit reads (positions, offsets, translations, scales,
+/// motion values): beyond it, squares and sums of squares lose all meaning or overflow.
+pub const MAX_COORDINATE: f64 = 1e12;
+
+/// What is wrong with a coordinate (`None` when nothing): not a finite number, or too large.
+pub fn coordinate_problem(x: f64) -> Option<String> {
+    if !x.is_finite() {
+        Some("coordinate is not a finite number (NaN or infinity)".into())
+    } else if x.abs() > MAX_COORDINATE {
+        Some(format!(
+            "coordinate {x:e} is too large (out of range: at most {MAX_COORDINATE:e} in magnitude)"
+        ))
+    } else {
+        None
+    }
+}
+
+/// Checks that every coordinate is finite and in range ([`MAX_COORDINATE`]); names the first
+/// point (`what` and index) that is not.
 pub fn check_finite<'a>(
     what: &str,
     points: impl IntoIterator<Item = &'a rigfit_core::Point3>,
 ) -> Result<(), ParseError> {
     for (i, p) in points.into_iter().enumerate() {
-        if p.iter().any(|x| !x.is_finite()) {
-            return Err(ParseError::new(
-                format!("{what} {i}"),
-                "coordinate is not a finite number (NaN or infinity)",
-            ));
+        if let Some(problem) = p.iter().find_map(|&x| coordinate_problem(x)) {
+            return Err(ParseError::new(format!("{what} {i}"), problem));
         }
     }
     Ok(())

@@ -182,11 +182,8 @@ fn three_numbers<'a>(
                     ),
                 )
             })?;
-        if !x.is_finite() {
-            return Err(ParseError::at_line(
-                line,
-                "coordinate is not a finite number (NaN or infinity)",
-            ));
+        if let Some(problem) = crate::error::coordinate_problem(*x) {
+            return Err(ParseError::at_line(line, problem));
         }
     }
     Ok(Vector3::from(xyz))
@@ -250,6 +247,7 @@ fn parse_corner(
 /// Reads an OBJ file, naming it in any error.
 pub fn read_obj(path: &Path) -> Result<TriMesh, FormatError> {
     let bytes = read_bytes(path)?;
+    let _span = tracing::warn_span!("reading", file = %path.display()).entered();
     parse_obj(&bytes).map_err(|e| FormatError::parse(path, e))
 }
 

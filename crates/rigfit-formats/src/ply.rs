@@ -16,7 +16,9 @@ use std::path::Path;
 
 use rigfit_core::{Point3, TriMesh, Vector3};
 
-use crate::error::{FormatError, ParseError, check_finite, read_bytes, write_atomic};
+use crate::error::{
+    FormatError, MAX_COORDINATE, ParseError, check_finite, read_bytes, write_atomic,
+};
 
 /// Parses a PLY file (ascii 1.0, binary_little_endian 1.0 or binary_big_endian 1.0).
 ///
@@ -49,6 +51,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriMesh, ParseError> {
 /// Reads a PLY file, naming it in any error.
 pub fn read_ply(path: &Path) -> Result<TriMesh, FormatError> {
     let bytes = read_bytes(path)?;
+    let _span = tracing::warn_span!("reading", file = %path.display()).entered();
     parse_ply(&bytes).map_err(|e| FormatError::parse(path, e))
 }
 
@@ -781,7 +784,9 @@ fn read_body(
                 vertices.push(Point3::new(s[x], s[y], s[z]));
                 if let Some([a, b, c]) = layout.normals {
                     let n = Vector3::new(s[a], s[b], s[c]);
-                    if bad_normal.is_none() && n.iter().any(|v| !v.is_finite()) {
+                    if bad_normal.is_none()
+                        && n.iter().any(|v| !v.is_finite() || v.abs() > MAX_COORDINATE)
+                    {
                         bad_normal = Some(row);
                     }
                     normals.push(n);
@@ -839,7 +844,7 @@ fn read_body(
         (Some(_), Some(row)) => {
             tracing::warn!(
                 vertex = row,
-                "PLY normals dropped: a normal is not a finite number (NaN or infinity)"
+                "PLY normals dropped: a normal is not a finite number (NaN or infinity) or is out of range"
             );
             None
         }

@@ -4,29 +4,36 @@ use rigfit_core::animation::quat_to_xyzw;
 use rigfit_core::{JointKind, Pose, Rig};
 use serde_json::{Value, json};
 
-/// The nearest ancestor of `joint` that is reported (not a helper node).
-fn reported_parent(rig: &Rig, joint: usize) -> Option<usize> {
-    let mut cur = rig.skeleton.joint(joint).parent;
-    while let Some(p) = cur {
-        if rig.skeleton.joint(p).kind != JointKind::Helper {
-            return Some(p);
-        }
-        cur = rig.skeleton.joint(p).parent;
+/// For every joint, its nearest ancestor that is reported (not a helper node): one pass,
+/// parents before children, so a long run of helpers is not walked once per joint below it.
+fn reported_parents(rig: &Rig) -> Vec<Option<usize>> {
+    let s = &rig.skeleton;
+    let mut out: Vec<Option<usize>> = Vec::with_capacity(s.len());
+    for j in 0..s.len() {
+        let parent = s.joint(j).parent.and_then(|p| {
+            if s.joint(p).kind == JointKind::Helper {
+                out[p]
+            } else {
+                Some(p)
+            }
+        });
+        out.push(parent);
     }
-    None
+    out
 }
 
 /// Every reported joint of `rig` in `pose`: name, parent, world position, local rotation
 /// (and `end_site` for BVH End Sites).
 pub fn joints_json(rig: &Rig, pose: &Pose) -> Vec<Value> {
     let positions = rig.skeleton.joint_positions(pose);
+    let parents = reported_parents(rig);
     rig.reported_joints()
         .map(|j| {
             let joint = rig.skeleton.joint(j);
             let p = positions[j];
             let mut v = json!({
                 "name": joint.name,
-                "parent": reported_parent(rig, j).map(|p| rig.skeleton.joint(p).name.clone()),
+                "parent": parents[j].map(|p| rig.skeleton.joint(p).name.clone()),
                 "position": [p.x, p.y, p.z],
                 "rotation": quat_to_xyzw(&pose.local[j].rotation),
             });

@@ -7,7 +7,27 @@ use rigfit_core::{Animation, Pose, Rig};
 
 use crate::bvh::{BvhDocument, parse_bvh};
 use crate::error::{FormatError, ParseError, extension, read_bytes, write_atomic};
-use crate::gltf::{GltfDocument, parse_gltf};
+use crate::gltf::GltfDocument;
+
+/// The highest frame number rigfit writes beyond a file's own frames (`pose --frame N`, the
+/// keys of an export): a BVH output holds a row for every frame up to it.
+pub const MAX_FRAME: usize = 100_000;
+
+/// Checks a frame number to write: at most [`MAX_FRAME`], or within the `existing` frames.
+fn check_frame(out: &Path, frame: usize, existing: usize) -> Result<(), FormatError> {
+    if frame <= MAX_FRAME || frame < existing {
+        return Ok(());
+    }
+    Err(FormatError::parse(
+        out,
+        ParseError::new(
+            "frame",
+            format!(
+                "frame {frame} is out of range: at most {MAX_FRAME} (or a frame the file already has)"
+            ),
+        ),
+    ))
+}
 
 /// Which BVH frame a rig starts from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -85,28 +105,47 @@ pub fn read_rig(path: &Path, options: &RigOptions) -> Result<RigFile, FormatErro
         return Err(unsupported_rig(path));
     }
     let bytes = read_bytes(path)?;
-    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut load = |uri: &str| -> Result<Vec<u8>, String> {
-        let file = dir.join(crate::gltf::percent_decode(uri));
-        std::fs::read(&file).map_err(|e| format!("cannot read '{}': {e}", file.display()))
-    };
-    let mut rig_file = rig_from_bytes(&bytes, path, options, &mut load)?;
-    if let RigSource::Gltf(doc) = &mut rig_file.source {
-        doc.source_dir = Some(dir);
+    let _span = tracing::warn_span!("reading", file = %path.display()).entered();
+    if matches!(
+        RigFormat::from_path(path),
+        Some(RigFormat::Glb | RigFormat::Gltf)
+    ) {
+        let doc = crate::gltf::parse_gltf_file(&bytes, path, options.skin.as_deref())?;
+        return rig_file_from_gltf(doc, path);
     }
-    Ok(rig_file)
+    let mut no_files = |_: &str, _: usize| -> Result<Vec<u8>, String> {
+        Err("a BVH file has no external buffers".into())
+    };
+    rig_from_bytes(&bytes, path, options, &mut no_files)
 }
 
 /// Parses the bytes of a rig file held in memory (an upload); `name` is the file's name: its
 /// extension gives the format and errors name it. A `.gltf` must embed its buffers (data
 /// URIs): nothing is read from the file system.
 pub fn parse_rig(bytes: &[u8], name: &Path, options: &RigOptions) -> Result<RigFile, FormatError> {
-    let mut no_files = |uri: &str| -> Result<Vec<u8>, String> {
+    let mut no_files = |uri: &str, _: usize| -> Result<Vec<u8>, String> {
         Err(format!(
             "external buffer '{uri}' cannot be read from memory (embed it as a data URI or use .glb)"
         ))
     };
     rig_from_bytes(bytes, name, options, &mut no_files)
+}
+
+/// The rig of a parsed glTF (a flat WebXR hand rebuilt as a tree).
+fn rig_file_from_gltf(doc: GltfDocument, path: &Path) -> Result<RigFile, FormatError> {
+    let rig = doc.require_rig().map_err(|e| FormatError::parse(path, e))?;
+    let rebuilt = rigfit_core::hierarchy::webxr_hand_parents(&rig.skeleton)
+        .and_then(|parents| rigfit_core::hierarchy::reparent(rig, &parents));
+    let (rig, file_index) = match rebuilt {
+        Some((rig, index)) => (rig, Some(index)),
+        None => (rig.clone(), None),
+    };
+    Ok(RigFile {
+        path: path.to_path_buf(),
+        rig,
+        source: RigSource::Gltf(Box::new(doc)),
+        file_index,
+    })
 }
 
 fn unsupported_rig(path: &Path) -> FormatError {
@@ -122,25 +161,13 @@ fn rig_from_bytes(
     bytes: &[u8],
     path: &Path,
     options: &RigOptions,
-    load_uri: &mut dyn FnMut(&str) -> Result<Vec<u8>, String>,
+    load_uri: &mut crate::gltf::LoadUri<'_>,
 ) -> Result<RigFile, FormatError> {
     match RigFormat::from_path(path) {
         Some(RigFormat::Glb | RigFormat::Gltf) => {
-            let doc = parse_gltf(bytes, load_uri, options.skin.as_deref())
+            let doc = crate::gltf::parse_gltf_with(bytes, load_uri, options.skin.as_deref())
                 .map_err(|e| FormatError::parse(path, e))?;
-            let rig = doc.require_rig().map_err(|e| FormatError::parse(path, e))?;
-            let rebuilt = rigfit_core::hierarchy::webxr_hand_parents(&rig.skeleton)
-                .and_then(|parents| rigfit_core::hierarchy::reparent(rig, &parents));
-            let (rig, file_index) = match rebuilt {
-                Some((rig, index)) => (rig, Some(index)),
-                None => (rig.clone(), None),
-            };
-            Ok(RigFile {
-                path: path.to_path_buf(),
-                rig,
-                source: RigSource::Gltf(Box::new(doc)),
-                file_index,
-            })
+            rig_file_from_gltf(doc, path)
         }
         Some(RigFormat::Bvh) => {
             let doc = parse_bvh(bytes).map_err(|e| FormatError::parse(path, e))?;
@@ -196,6 +223,15 @@ impl RigFile {
         }
     }
 
+    /// Checks that frame `frame` may be written to `out` (see [`MAX_FRAME`]).
+    pub fn check_frame(&self, out: &Path, frame: usize) -> Result<(), FormatError> {
+        let existing = match &self.source {
+            RigSource::Bvh(doc) => doc.frames.len(),
+            RigSource::Gltf(_) => 0,
+        };
+        check_frame(out, frame, existing)
+    }
+
     /// Writes the rig posed as `pose` to `out` (the bytes of [`Self::pose_bytes`]).
     pub fn write_pose(
         &self,
@@ -222,6 +258,10 @@ impl RigFile {
         pose: &Pose,
         frame: Option<usize>,
     ) -> Result<Vec<u8>, FormatError> {
+        let _span = tracing::warn_span!("writing", file = %out.display()).entered();
+        if let Some(n) = frame {
+            self.check_frame(out, n)?;
+        }
         match (RigFormat::from_path(out), &self.source) {
             (Some(format @ (RigFormat::Glb | RigFormat::Gltf)), RigSource::Gltf(doc)) => {
                 let file_pose = self.file_pose(pose);
@@ -268,6 +308,15 @@ impl RigFile {
         }
     }
 
+    /// Checks, before any work, that `out`'s extension names a format this rig can be
+    /// written in (the formats of [`Self::pose_bytes`] and [`Self::poses_bytes`]).
+    pub fn check_output_format(&self, out: &Path) -> Result<(), FormatError> {
+        match (RigFormat::from_path(out), &self.source) {
+            (Some(_), RigSource::Gltf(_)) | (Some(RigFormat::Bvh | RigFormat::Glb), _) => Ok(()),
+            _ => Err(self.unsupported_output(out)),
+        }
+    }
+
     fn unsupported_output(&self, out: &Path) -> FormatError {
         FormatError::Unsupported {
             path: out.to_path_buf(),
@@ -304,6 +353,7 @@ impl RigFile {
         poses: &[Pose],
         fps: f64,
     ) -> Result<Vec<u8>, FormatError> {
+        let _span = tracing::warn_span!("writing", file = %out.display()).entered();
         let Some(last) = poses.last() else {
             return Err(FormatError::parse(
                 out,
@@ -370,6 +420,10 @@ impl RigFile {
                 ParseError::new("fps", format!("must be a positive number, not {fps}")),
             ));
         }
+        if let Some((last, _)) = keys.last() {
+            check_frame(name, *last, 0)?;
+        }
+        let _span = tracing::warn_span!("writing", file = %name.display()).entered();
         let timed: Vec<(f64, Pose)> = keys
             .iter()
             .map(|(frame, p)| (*frame as f64 / fps, p.clone()))

@@ -124,11 +124,8 @@ fn parse_point(place: &str, value: &Value) -> Result<Point3, ParseError> {
     let mut p = [0.0; 3];
     for (out, v) in p.iter_mut().zip([x, y, z]) {
         *out = v.as_f64().ok_or_else(bad)?;
-        if !out.is_finite() {
-            return Err(ParseError::new(
-                place,
-                "coordinate is not a finite number (NaN or infinity)",
-            ));
+        if let Some(problem) = crate::error::coordinate_problem(*out) {
+            return Err(ParseError::new(place, problem));
         }
     }
     Ok(Point3::from(p))
@@ -137,6 +134,7 @@ fn parse_point(place: &str, value: &Value) -> Result<Point3, ParseError> {
 /// Reads a strokes file, naming it in any error.
 pub fn read_strokes(path: &Path) -> Result<Vec<Stroke>, FormatError> {
     let bytes = read_bytes(path)?;
+    let _span = tracing::warn_span!("reading", file = %path.display()).entered();
     parse_strokes(&bytes).map_err(|e| FormatError::parse(path, e))
 }
 

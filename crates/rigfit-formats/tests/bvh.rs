@@ -699,6 +699,10 @@ fn malformed_files_fail_with_clear_messages() {
         ),
         ("bvh_unbalanced_braces.bvh", "line 16: unmatched '}'"),
         ("bvh_no_joints.bvh", "no ROOT joint"),
+        (
+            "bvh_huge_offset.bvh",
+            "line 8: OFFSET of joint \"Spine\": \"1e308\" is too large (out of range",
+        ),
     ];
     let mut seen = 0;
     for entry in std::fs::read_dir(&dir).expect("malformed dir") {

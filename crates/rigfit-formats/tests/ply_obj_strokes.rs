@@ -587,7 +587,7 @@ fn sample_strokes() -> Vec<Stroke> {
         },
         Stroke {
             points: vec![
-                Point3::new(-1.0 / 3.0, 1e-300, 5e300),
+                Point3::new(-1.0 / 3.0, 1e-300, 1e12 - 0.0625),
                 Point3::new(0.0, -0.0, 2.0),
                 Point3::new(7.0, 8.0, 9.5),
             ],
@@ -720,6 +720,18 @@ const MALFORMED: &[(&str, &[&str])] = &[
         &["strokes[0].bones[1]", "bone name"],
     ),
     ("strokes_not_object.json", &["top level", "\"strokes\""]),
+    (
+        "strokes_huge_coordinate.json",
+        &["strokes[0].points[0]", "too large", "out of range"],
+    ),
+    (
+        "obj_huge_coordinate.obj",
+        &["line 1", "too large", "out of range"],
+    ),
+    (
+        "ply_huge_coordinate.ply",
+        &["vertex 0", "too large", "out of range"],
+    ),
 ];
 
 fn read_any(path: &Path) -> Result<(), FormatError> {

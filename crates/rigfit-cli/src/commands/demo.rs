@@ -8,7 +8,7 @@ use std::time::Instant;
 use rand::SeedableRng;
 use rigfit_core::pose::cases::{CaseOptions, make_case, mean_joint_error};
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
-use rigfit_formats::error::write_atomic;
+use rigfit_formats::files::{commit_all, stage};
 use rigfit_formats::report::{pose_report, to_text};
 
 #[derive(Debug, clap::Args)]
@@ -58,11 +58,8 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     );
 
     let rest_path = args.output.join("humanoid.glb");
-    rigfit_formats::gltf::write_rig_glb(&rest_path, &rig)?;
-    rigfit_formats::strokes::write_strokes(&args.output.join("strokes.json"), &case.strokes)?;
     let mut posed = rig.clone();
     posed.pose = result.pose.clone();
-    rigfit_formats::gltf::write_rig_glb(&args.output.join("posed.glb"), &posed)?;
     let report = pose_report(
         &rig,
         &result.pose,
@@ -71,10 +68,23 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         result.energy,
         seconds,
     );
-    write_atomic(
-        &args.output.join("report.json"),
-        to_text(&report).as_bytes(),
-    )?;
+    // All four written to temporaries first, then renamed together.
+    let staged = vec![
+        stage(&rest_path, &rigfit_formats::gltf::rig_to_glb(&rig))?,
+        stage(
+            &args.output.join("strokes.json"),
+            rigfit_formats::strokes::strokes_json(&case.strokes).as_bytes(),
+        )?,
+        stage(
+            &args.output.join("posed.glb"),
+            &rigfit_formats::gltf::rig_to_glb(&posed),
+        )?,
+        stage(
+            &args.output.join("report.json"),
+            to_text(&report).as_bytes(),
+        )?,
+    ];
+    commit_all(staged)?;
 
     println!(
         "rigfit demo: posing the built-in humanoid ({} joints, height {height:.2}) from {} strokes",

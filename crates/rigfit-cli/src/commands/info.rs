@@ -18,9 +18,15 @@ pub struct InfoArgs {
 }
 
 pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
+    super::check_rig_options(&args.file, args.skin.as_deref(), None)?;
     let text = describe(&args.file, args.skin.as_deref())?;
-    print!("{text}");
-    Ok(())
+    // A reader that stops early (`rigfit info big.glb | head`) is no error.
+    match std::io::Write::write_all(&mut std::io::stdout().lock(), text.as_bytes()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(anyhow::anyhow!("writing to stdout: {e}"))
+        }
+        _ => Ok(()),
+    }
 }
 
 /// The description printed by `rigfit info`.
@@ -129,6 +135,9 @@ pub fn describe(path: &Path, skin: Option<&str>) -> anyhow::Result<String> {
     Ok(out)
 }
 
+/// The deepest indentation of the joint tree.
+const MAX_INDENT: usize = 32;
+
 fn describe_rig(out: &mut String, rig: &Rig) -> anyhow::Result<()> {
     let s = &rig.skeleton;
     let count = |k: JointKind| s.joints().iter().filter(|j| j.kind == k).count();
@@ -140,8 +149,13 @@ fn describe_rig(out: &mut String, rig: &Rig) -> anyhow::Result<()> {
         count(JointKind::EndSite),
         count(JointKind::Helper)
     )?;
-    fn walk(out: &mut String, rig: &Rig, j: usize, depth: usize) -> std::fmt::Result {
-        let joint = rig.skeleton.joint(j);
+    // Depth first, parents before children, with an explicit stack (a chain of any depth);
+    // the indentation stops growing at MAX_INDENT levels, deeper joints show their depth,
+    // so the text grows linearly with the number of joints.
+    let mut stack: Vec<(usize, usize)> = s.roots().map(|r| (r, 0)).collect();
+    stack.reverse();
+    while let Some((j, depth)) = stack.pop() {
+        let joint = s.joint(j);
         let kind = match joint.kind {
             JointKind::Skin => "",
             JointKind::Helper => " (helper)",
@@ -153,14 +167,14 @@ fn describe_rig(out: &mut String, rig: &Rig) -> anyhow::Result<()> {
             JointDof::Hinge { .. } => " [hinge]",
             JointDof::Fixed => " [fixed]",
         };
-        writeln!(out, "  {}{}{kind}{dof}", "  ".repeat(depth), joint.name)?;
-        for &c in rig.skeleton.children(j) {
-            walk(out, rig, c, depth + 1)?;
-        }
-        Ok(())
-    }
-    for r in s.roots() {
-        walk(out, rig, r, 0)?;
+        let indent = "  ".repeat(depth.min(MAX_INDENT));
+        let deep = if depth > MAX_INDENT {
+            format!("(depth {depth}) ")
+        } else {
+            String::new()
+        };
+        writeln!(out, "  {indent}{deep}{}{kind}{dof}", joint.name)?;
+        stack.extend(s.children(j).iter().rev().map(|&c| (c, depth + 1)));
     }
     writeln!(out, "animations: {}", rig.animations.len())?;
     for a in &rig.animations {

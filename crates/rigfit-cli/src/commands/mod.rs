@@ -29,3 +29,45 @@ pub fn read_mesh(path: &Path) -> anyhow::Result<TriMesh> {
         }
     })
 }
+
+/// The files a rig was read from: the rig and the external buffers of a glTF.
+pub fn rig_inputs(rig_file: &rigfit_formats::rig_file::RigFile) -> Vec<std::path::PathBuf> {
+    let mut files = vec![rig_file.path.clone()];
+    if let rigfit_formats::rig_file::RigSource::Gltf(doc) = &rig_file.source {
+        files.extend(doc.external_files.iter().cloned());
+    }
+    files
+}
+
+/// Before any work: every input is a regular file rigfit may read (not a FIFO or device,
+/// not too large), every output may be written (absent or a regular file, in an existing
+/// folder), and no output is an input or named twice.
+pub fn check_files(inputs: &[&Path], outputs: &[&Path]) -> anyhow::Result<()> {
+    for input in inputs {
+        rigfit_formats::files::check_input(input)?;
+    }
+    rigfit_formats::files::check_outputs(inputs, outputs)?;
+    Ok(())
+}
+
+/// Refuses rig options that do not apply to the rig's format, instead of ignoring them.
+pub fn check_rig_options(
+    rig: &Path,
+    skin: Option<&str>,
+    start_frame: Option<&str>,
+) -> anyhow::Result<()> {
+    let ext = extension(rig);
+    if start_frame.is_some() && matches!(ext.as_str(), "glb" | "gltf") {
+        anyhow::bail!(
+            "{}: --start-frame applies to BVH rigs only (a glTF starts from its stored node pose)",
+            rig.display()
+        );
+    }
+    if skin.is_some() && ext == "bvh" {
+        anyhow::bail!(
+            "{}: --skin applies to glTF rigs only (a BVH has no skins)",
+            rig.display()
+        );
+    }
+    Ok(())
+}

@@ -3,9 +3,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, anyhow};
+use anyhow::anyhow;
 use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem, PoseResult, solve_pose};
-use rigfit_formats::error::write_atomic;
+use rigfit_formats::files::{commit_all, stage};
 use rigfit_formats::report::{pose_report, to_text};
 use rigfit_formats::rig_file::{RigFile, RigOptions, StartFrame, read_rig};
 
@@ -97,6 +97,7 @@ pub fn solve(
 }
 
 pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
+    super::check_rig_options(&args.rig, args.skin.as_deref(), args.start_frame.as_deref())?;
     let options = RigOptions {
         skin: args.skin.clone(),
         start_frame: start_frame(args.start_frame.as_deref())?,
@@ -104,7 +105,26 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
     if let Some(picture) = &args.render {
         super::render::check_png_path(picture)?;
     }
+    let outputs: Vec<&Path> = [&args.output, &args.report, &args.render]
+        .into_iter()
+        .flatten()
+        .map(PathBuf::as_path)
+        .collect();
+    super::check_files(&[&args.rig, &args.strokes], &outputs)?;
     let rig_file = read_rig(&args.rig, &options)?;
+    let rig_inputs = super::rig_inputs(&rig_file);
+    let mut inputs: Vec<&Path> = rig_inputs.iter().map(PathBuf::as_path).collect();
+    inputs.push(&args.strokes);
+    super::check_files(&inputs, &outputs)?;
+    if let Some(out) = &args.output {
+        rig_file.check_output_format(out)?;
+    }
+    if let Some(out) = &args.output {
+        rig_file.check_output_format(out)?;
+    }
+    if let (Some(out), Some(n)) = (&args.output, args.frame) {
+        rig_file.check_frame(out, n)?;
+    }
     if rig_file.rig.meshes.is_empty()
         && matches!(
             rig_file.source,
@@ -124,8 +144,14 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
         args.bones.as_deref(),
         args.method,
     )?;
+    // Every output is made and written to its temporary file before any is renamed into
+    // place: a failure leaves none of them.
+    let mut staged = Vec::new();
     if let Some(out) = &args.output {
-        rig_file.write_pose(out, &result.pose, args.frame)?;
+        staged.push(stage(
+            out,
+            &rig_file.pose_bytes(out, &result.pose, args.frame)?,
+        )?);
     }
     if let Some(report) = &args.report {
         let value = pose_report(
@@ -136,12 +162,13 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
             result.energy,
             seconds,
         );
-        write_atomic(report, to_text(&value).as_bytes()).with_context(|| "writing the report")?;
+        staged.push(stage(report, to_text(&value).as_bytes())?);
     }
     if let Some(picture) = &args.render {
         let image = side_by_side(&rig_file.rig, &strokes, &result, &args.picture);
-        super::render::write_png(picture, &image)?;
+        staged.push(stage(picture, &super::render::png_bytes(picture, &image)?)?);
     }
+    commit_all(staged)?;
     let matched = result.stroke_bones.iter().filter(|b| !b.is_empty()).count();
     println!(
         "posed {} from {} strokes ({} matched to bones, {} set aside) in {:.1} ms",

@@ -79,6 +79,19 @@ pub struct RenderArgs {
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     check_png_path(&args.output)?;
+    if args.start_frame.is_some() && !args.inputs.iter().any(|p| extension(p) == "bvh") {
+        bail!("--start-frame applies to BVH rigs only, and no input is a .bvh");
+    }
+    if args.skin.is_some()
+        && !args
+            .inputs
+            .iter()
+            .any(|p| matches!(extension(p).as_str(), "glb" | "gltf"))
+    {
+        bail!("--skin applies to glTF rigs only, and no input is a .glb or .gltf");
+    }
+    let inputs: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
+    super::check_files(&inputs, &[&args.output])?;
     let rig_options = RigOptions {
         skin: args.skin.clone(),
         start_frame: super::pose::start_frame(args.start_frame.as_deref())?,
@@ -141,11 +154,15 @@ pub fn check_png_path(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The PNG bytes of `image` (`path` names it in errors).
+pub fn png_bytes(path: &Path, image: &Image) -> anyhow::Result<Vec<u8>> {
+    image
+        .png()
+        .with_context(|| format!("{}: encoding the picture", path.display()))
+}
+
 /// Writes `image` as a PNG, atomically.
 pub fn write_png(path: &Path, image: &Image) -> anyhow::Result<()> {
-    let bytes = image
-        .png()
-        .with_context(|| format!("{}: encoding the picture", path.display()))?;
-    write_atomic(path, &bytes)?;
+    write_atomic(path, &png_bytes(path, image)?)?;
     Ok(())
 }

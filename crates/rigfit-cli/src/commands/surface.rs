@@ -8,7 +8,8 @@ use anyhow::{Context, anyhow};
 use rigfit_core::TriMesh;
 use rigfit_core::surface::cases::skinned_surface;
 use rigfit_core::surface::{Observations, SurfaceError, SurfaceOptions, SurfaceTracker};
-use rigfit_formats::error::{extension, write_atomic};
+use rigfit_formats::error::extension;
+use rigfit_formats::files::{commit_all, stage};
 use rigfit_formats::ply::ply_bytes;
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 use serde_json::json;
@@ -85,20 +86,114 @@ fn named(path: &Path, e: SurfaceError) -> anyhow::Error {
     anyhow!("{}: {e}", path.display())
 }
 
+/// The most EM iterations per frame `--iterations` takes, and the coarsest `--coarse`.
+const MAX_ITERATIONS: usize = 1000;
+const MAX_COARSE: usize = 1024;
+
+/// The name of output frame `i`.
+fn frame_name(i: usize) -> String {
+    format!("frame_{i:05}.ply")
+}
+
+/// The frame files in `dir` (`frame_` digits `.ply`) with their numbers: an earlier run's.
+fn frame_files(dir: &Path) -> anyhow::Result<Vec<(usize, PathBuf)>> {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(anyhow!("{}: cannot list the folder: {e}", dir.display())),
+    };
+    let mut out = Vec::new();
+    for entry in entries {
+        let entry = entry.with_context(|| format!("{}: cannot list the folder", dir.display()))?;
+        let name = entry.file_name();
+        let Some(name) = name.to_str() else { continue };
+        let Some(digits) = name
+            .strip_prefix("frame_")
+            .and_then(|n| n.strip_suffix(".ply"))
+        else {
+            continue;
+        };
+        if digits.len() < 5 || !digits.bytes().all(|b| b.is_ascii_digit()) {
+            continue;
+        }
+        if let Ok(i) = digits.parse::<usize>() {
+            if frame_name(i) == name {
+                out.push((i, entry.path()));
+            }
+        }
+    }
+    Ok(out)
+}
+
 pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
     if let Some(picture) = &args.render {
         super::render::check_png_path(picture)?;
     }
+    if !(1..=MAX_ITERATIONS).contains(&args.iterations) {
+        return Err(anyhow!(
+            "--iterations: expected 1 to {MAX_ITERATIONS} EM iterations per frame, got {}",
+            args.iterations
+        ));
+    }
+    if !(1..=MAX_COARSE).contains(&args.coarse) {
+        return Err(anyhow!(
+            "--coarse: expected a stride from 1 to {MAX_COARSE}, got {}",
+            args.coarse
+        ));
+    }
+    // OUTDIR: a folder (made when missing). Its frame_NNNNN.ply files are replaced; those
+    // of an earlier run numbered past this run's frames are removed once this run's are all
+    // in place. An input among them (or among the new names) is refused.
+    let outdir = &args.output;
+    let outdir_exists = match std::fs::metadata(outdir) {
+        Ok(m) if m.is_dir() => true,
+        Ok(_) => {
+            return Err(anyhow!(
+                "{}: the output must be a folder (it is a file)",
+                outdir.display()
+            ));
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => false,
+        Err(e) => return Err(anyhow!("{}: {e}", outdir.display())),
+    };
+    let stale = frame_files(outdir)?;
+    let frame_outputs: Vec<PathBuf> = (0..args.frames.len())
+        .map(|i| outdir.join(frame_name(i)))
+        .collect();
+    let mut inputs: Vec<&Path> = vec![&args.mesh];
+    inputs.extend(args.frames.iter().map(PathBuf::as_path));
+    inputs.extend(args.truth.iter().flatten().map(PathBuf::as_path));
+    // A report or picture inside an OUTDIR not made yet is checked when it is written.
+    let mut outputs: Vec<&Path> = [&args.report, &args.render]
+        .into_iter()
+        .flatten()
+        .map(PathBuf::as_path)
+        .filter(|p| outdir_exists || p.parent() != Some(outdir.as_path()))
+        .collect();
+    if outdir_exists {
+        outputs.extend(frame_outputs.iter().map(PathBuf::as_path));
+        // Earlier frames past this run's count are removed: they too must not be inputs.
+        outputs.extend(
+            stale
+                .iter()
+                .filter(|(i, _)| *i >= args.frames.len())
+                .map(|(_, p)| p.as_path()),
+        );
+    }
+    super::check_files(&inputs, &outputs)?;
     let reference = read_reference(&args.mesh)?;
     let mut options = SurfaceOptions::default();
     options.patches.radius = args.patch_radius;
     options.data.outlier_ratio = args.outliers;
     options.rigidity = args.rigidity;
-    options.max_iterations = args.iterations.max(1);
+    options.max_iterations = args.iterations;
     options.merge_cell = args.merge;
-    options.coarse_stride = args.coarse.max(1);
-    if !(options.patches.radius > 0.0 && options.patches.radius.is_finite()) {
-        return Err(anyhow!("--patch-radius: expected a positive fraction"));
+    options.coarse_stride = args.coarse;
+    if !(1e-4..=10.0).contains(&options.patches.radius) {
+        return Err(anyhow!(
+            "--patch-radius: expected a fraction of the diagonal from 0.0001 to 10, got {}",
+            options.patches.radius
+        ));
     }
     if !(0.0..1.0).contains(&options.data.outlier_ratio) {
         return Err(anyhow!("--outliers: expected a fraction in [0, 1)"));
@@ -142,8 +237,55 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
         results.push((path, fit, seconds));
     }
     progress.finish_and_clear();
-    std::fs::create_dir_all(&args.output)
-        .with_context(|| format!("{}: cannot create the folder", args.output.display()))?;
+    let made_outdir = !outdir_exists;
+    if made_outdir {
+        std::fs::create_dir_all(outdir)
+            .with_context(|| format!("{}: cannot create the folder", outdir.display()))?;
+    }
+    let written = write_outputs(args, &reference, &results, &shown_points, &frame_outputs);
+    if let Err(e) = written {
+        if made_outdir {
+            // Empty: every output went to a temporary file, removed on failure.
+            let _ = std::fs::remove_dir(outdir);
+        }
+        return Err(e);
+    }
+    for (i, path) in &stale {
+        let regular = std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file());
+        if *i >= results.len() && regular {
+            std::fs::remove_file(path).with_context(|| {
+                format!(
+                    "{}: cannot remove this frame of an earlier run",
+                    path.display()
+                )
+            })?;
+        }
+    }
+    println!(
+        "tracked {} ({} vertices, {} patches) through {} frames in {:.1} ms per frame; wrote {}",
+        args.mesh.display(),
+        reference.vertices.len(),
+        tracker.model.patch_count(),
+        results.len(),
+        total_seconds / results.len().max(1) as f64 * 1000.0,
+        outdir.display()
+    );
+    Ok(())
+}
+
+/// One tracked frame: its file, the fit and the seconds it took.
+type Tracked<'a> = (&'a PathBuf, rigfit_core::surface::FrameFit, f64);
+
+/// Makes every output and writes each to its temporary file, then renames them all into
+/// place (a failure before the renames leaves nothing).
+fn write_outputs(
+    args: &SurfaceArgs,
+    reference: &TriMesh,
+    results: &[Tracked<'_>],
+    shown_points: &[(usize, Vec<rigfit_core::Point3>)],
+    frame_outputs: &[PathBuf],
+) -> anyhow::Result<()> {
+    let mut staged = Vec::with_capacity(results.len() + 2);
     let mut frames_json = Vec::with_capacity(results.len());
     for (i, (path, fit, seconds)) in results.iter().enumerate() {
         let mesh = TriMesh {
@@ -151,8 +293,7 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
             triangles: reference.triangles.clone(),
             vertices: fit.positions.clone(),
         };
-        let out = args.output.join(format!("frame_{i:05}.ply"));
-        write_atomic(&out, &ply_bytes(&mesh, true))?;
+        staged.push(stage(&frame_outputs[i], &ply_bytes(&mesh, true))?);
         frames_json.push(json!({
             "file": path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
             "inliers": fit.inliers,
@@ -183,7 +324,7 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
             Some(files) => Some(
                 files
                     .iter()
-                    .zip(&results)
+                    .zip(results)
                     .map(|(file, r)| {
                         let truth = super::read_mesh(file)?;
                         if truth.vertices.len() != r.1.positions.len() {
@@ -215,22 +356,14 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
         if let Some((_, first)) = frames.first() {
             let options = args.picture.options(first);
             let image = rigfit_render::tracking_sheet(&frames, &stats, &options);
-            super::render::write_png(picture, &image)?;
+            staged.push(stage(picture, &super::render::png_bytes(picture, &image)?)?);
         }
     }
     if let Some(report) = &args.report {
         let value = json!({ "frames": frames_json });
         let text = serde_json::to_string_pretty(&value).context("the report")? + "\n";
-        write_atomic(report, text.as_bytes())?;
+        staged.push(stage(report, text.as_bytes())?);
     }
-    println!(
-        "tracked {} ({} vertices, {} patches) through {} frames in {:.1} ms per frame; wrote {}",
-        args.mesh.display(),
-        reference.vertices.len(),
-        tracker.model.patch_count(),
-        results.len(),
-        total_seconds / results.len().max(1) as f64 * 1000.0,
-        args.output.display()
-    );
+    commit_all(staged)?;
     Ok(())
 }

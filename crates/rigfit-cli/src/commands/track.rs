@@ -4,10 +4,10 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, anyhow, bail};
+use anyhow::{anyhow, bail};
 use rigfit_core::track::{ArticulatedModel, FrameFit, TrackOptions, Tracker};
 use rigfit_core::{Point3, Pose};
-use rigfit_formats::error::write_atomic;
+use rigfit_formats::files::{commit_all, stage};
 use rigfit_formats::report::{to_text, track_frame_json};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 use serde_json::json;
@@ -125,21 +125,41 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     if let Some(picture) = &args.render {
         super::render::check_png_path(picture)?;
     }
-    if !(args.noise.is_finite() && args.noise > 0.0) {
+    // Fractions of the height; past these bounds the kernels and grids lose all meaning.
+    if !(1e-6..=1.0).contains(&args.noise) {
         bail!(
-            "--noise: expected a positive fraction of the height, got {}",
+            "--noise: expected a fraction of the height from 0.000001 to 1, got {}",
             args.noise
         );
     }
-    if !(args.fps.is_finite() && args.fps > 0.0) {
-        bail!("--fps: expected a positive number, got {}", args.fps);
+    if !(args.fps.is_finite() && (1e-3..=1e6).contains(&args.fps)) {
+        bail!(
+            "--fps: expected a number of frames per second from 0.001 to 1000000, got {}",
+            args.fps
+        );
     }
+    super::check_rig_options(&args.rig, args.skin.as_deref(), args.start_frame.as_deref())?;
+    let outputs: Vec<&Path> = [&args.output, &args.report, &args.render]
+        .into_iter()
+        .flatten()
+        .map(PathBuf::as_path)
+        .collect();
+    let mut inputs: Vec<&Path> = vec![&args.rig];
+    inputs.extend(args.frames.iter().map(PathBuf::as_path));
+    inputs.extend(args.truth.as_deref());
+    super::check_files(&inputs, &outputs)?;
     let rig_options = RigOptions {
         skin: args.skin.clone(),
         start_frame: super::pose::start_frame(args.start_frame.as_deref())?,
     };
     let truth = args.truth.as_deref().map(read_truth).transpose()?;
     let rig_file = read_rig(&args.rig, &rig_options)?;
+    let rig_inputs = super::rig_inputs(&rig_file);
+    inputs.extend(rig_inputs.iter().map(PathBuf::as_path));
+    super::check_files(&inputs, &outputs)?;
+    if let Some(out) = &args.output {
+        rig_file.check_output_format(out)?;
+    }
     let rig = &rig_file.rig;
     let mut options = match args.method {
         TrackMethod::Rigfit => TrackOptions::default(),
@@ -147,8 +167,10 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     };
     options.noise = args.noise;
     if let Some(m) = args.max_motion {
-        if !(m.is_finite() && m > 0.0) {
-            bail!("--max-motion: expected a positive fraction of the height, got {m}");
+        if !(m > 0.0 && m <= 10.0) {
+            bail!(
+                "--max-motion: expected a fraction of the height above 0 and at most 10, got {m}"
+            );
         }
         options.max_motion = m.max(args.noise);
     }
@@ -196,19 +218,23 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     }
     progress.finish_and_clear();
 
-    // Frames tracked before a failure are written all the same.
+    // Frames tracked before a failure are written all the same; every output is made and
+    // written to its temporary file before any is renamed into place.
     if !tracked.is_empty() {
         let poses: Vec<Pose> = tracked.iter().map(|t| t.fit.pose.clone()).collect();
+        let mut staged = Vec::new();
         if let Some(out) = &args.output {
-            rig_file.write_poses(out, &poses, args.fps)?;
+            staged.push(stage(out, &rig_file.poses_bytes(out, &poses, args.fps)?)?);
         }
         if let Some(report) = &args.report {
             let frames: Vec<serde_json::Value> = tracked
                 .iter()
                 .map(|t| track_frame_json(rig, &t.fit.pose, &t.file, t.fit.inliers, t.seconds))
                 .collect();
-            write_atomic(report, to_text(&json!({ "frames": frames })).as_bytes())
-                .with_context(|| "writing the report")?;
+            staged.push(stage(
+                report,
+                to_text(&json!({ "frames": frames })).as_bytes(),
+            )?);
         }
         if let Some(picture) = &args.render {
             let image = sheet(
@@ -219,8 +245,9 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
                 rig,
                 truth.as_deref(),
             );
-            super::render::write_png(picture, &image)?;
+            staged.push(stage(picture, &super::render::png_bytes(picture, &image)?)?);
         }
+        commit_all(staged)?;
         let total: f64 = tracked.iter().map(|t| t.seconds).sum();
         println!(
             "tracked {} of {} frames with {} in {:.1} ms per frame (mean {:.0} inliers)",

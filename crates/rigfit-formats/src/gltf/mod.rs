@@ -38,6 +38,8 @@ pub struct GltfDocument {
     pub skin: Option<usize>,
     /// Directory external URIs were resolved against.
     pub source_dir: Option<PathBuf>,
+    /// The external files read for its buffers (resolved paths).
+    pub external_files: Vec<PathBuf>,
 }
 
 /// A mesh of the file, for `rigfit info`.
@@ -56,41 +58,81 @@ pub fn parse_gltf(
     load_uri: &mut dyn FnMut(&str) -> Result<Vec<u8>, String>,
     skin_name: Option<&str>,
 ) -> Result<GltfDocument, ParseError> {
+    read::parse(bytes, &mut |uri, _| load_uri(uri), skin_name)
+}
+
+/// Supplies the bytes of an external buffer: its URI and declared byteLength.
+pub(crate) type LoadUri<'a> = dyn FnMut(&str, usize) -> Result<Vec<u8>, String> + 'a;
+
+/// [`parse_gltf`] with a loader that is also given each buffer's byteLength.
+pub(crate) fn parse_gltf_with(
+    bytes: &[u8],
+    load_uri: &mut LoadUri<'_>,
+    skin_name: Option<&str>,
+) -> Result<GltfDocument, ParseError> {
     read::parse(bytes, load_uri, skin_name)
 }
 
-/// Reads a `.gltf` or `.glb` file; external buffers are read relative to it.
-pub fn read_gltf(path: &Path, skin_name: Option<&str>) -> Result<GltfDocument, FormatError> {
-    let bytes = read_bytes(path)?;
-    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut load = |uri: &str| -> Result<Vec<u8>, String> {
-        let decoded = percent_decode(uri);
-        let file = dir.join(&decoded);
-        std::fs::read(&file).map_err(|e| format!("cannot read '{}': {e}", file.display()))
+/// The loader of external buffers for a glTF file in `dir`: only regular files inside `dir`
+/// (see [`crate::files::read_relative_uri`]), at most the buffer's byteLength read; the files
+/// read are added to `files`.
+pub(crate) fn file_loader<'a>(
+    dir: &'a Path,
+    files: &'a mut Vec<PathBuf>,
+) -> impl FnMut(&str, usize) -> Result<Vec<u8>, String> + 'a {
+    move |uri: &str, byte_length: usize| {
+        let (bytes, real) = crate::files::read_relative_uri(dir, uri, byte_length as u64)?;
+        files.push(real);
+        Ok(bytes)
+    }
+}
+
+/// Checks the file's image URIs by the rules of external buffers (relative, inside the
+/// glTF's folder): they are never read, but a written glTF points at them.
+pub(crate) fn check_image_uris(json: &Value) -> Result<(), ParseError> {
+    let Some(images) = json.get("images").and_then(Value::as_array) else {
+        return Ok(());
     };
-    let mut doc =
-        parse_gltf(&bytes, &mut load, skin_name).map_err(|e| FormatError::parse(path, e))?;
+    for (i, image) in images.iter().enumerate() {
+        let Some(uri) = image.get("uri").and_then(Value::as_str) else {
+            continue;
+        };
+        let lower = uri.to_ascii_lowercase();
+        if lower.starts_with("data:")
+            || lower.starts_with("http://")
+            || lower.starts_with("https://")
+        {
+            continue;
+        }
+        crate::files::relative_uri_path(uri)
+            .map_err(|e| ParseError::new(format!("images[{i}]"), e))?;
+    }
+    Ok(())
+}
+
+/// Parses the bytes of a glTF file at `path` with its external buffers read from its
+/// folder; the document records that folder and the files read.
+pub(crate) fn parse_gltf_file(
+    bytes: &[u8],
+    path: &Path,
+    skin_name: Option<&str>,
+) -> Result<GltfDocument, FormatError> {
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut files = Vec::new();
+    let mut doc = read::parse(bytes, &mut file_loader(&dir, &mut files), skin_name)
+        .and_then(|doc| check_image_uris(&doc.json).map(|()| doc))
+        .map_err(|e| FormatError::parse(path, e))?;
     doc.source_dir = Some(dir);
+    doc.external_files = files;
     Ok(doc)
 }
 
-pub(crate) fn percent_decode(uri: &str) -> String {
-    let bytes = uri.as_bytes();
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut i = 0;
-    while i < bytes.len() {
-        if bytes[i] == b'%' && i + 2 < bytes.len() {
-            let hex = std::str::from_utf8(&bytes[i + 1..i + 3]).ok();
-            if let Some(v) = hex.and_then(|h| u8::from_str_radix(h, 16).ok()) {
-                out.push(v);
-                i += 3;
-                continue;
-            }
-        }
-        out.push(bytes[i]);
-        i += 1;
-    }
-    String::from_utf8_lossy(&out).into_owned()
+/// Reads a `.gltf` or `.glb` file; external buffers are read relative to it (inside its
+/// folder only).
+pub fn read_gltf(path: &Path, skin_name: Option<&str>) -> Result<GltfDocument, FormatError> {
+    let bytes = read_bytes(path)?;
+    let _span = tracing::warn_span!("reading", file = %path.display()).entered();
+    parse_gltf_file(&bytes, path, skin_name)
 }
 
 impl GltfDocument {

@@ -10,12 +10,12 @@ use serde_json::Value;
 
 use super::accessor::{element, index_field, read_accessor_as, required_index};
 use super::container::{is_glb, split_glb};
-use super::{GltfDocument, MeshSummary};
-use crate::error::ParseError;
+use super::{GltfDocument, LoadUri, MeshSummary};
+use crate::error::{ParseError, coordinate_problem};
 
 pub(super) fn parse(
     bytes: &[u8],
-    load_uri: &mut dyn FnMut(&str) -> Result<Vec<u8>, String>,
+    load_uri: &mut LoadUri<'_>,
     skin_name: Option<&str>,
 ) -> Result<GltfDocument, ParseError> {
     let (json_bytes, bin) = if is_glb(bytes) {
@@ -23,6 +23,25 @@ pub(super) fn parse(
     } else {
         (bytes, None)
     };
+    // The node count first, by a pass that builds nothing: a JSON tree costs about a
+    // kilobyte a node, so a file of millions of nodes is refused before it is built.
+    #[derive(serde::Deserialize)]
+    struct Shape {
+        #[serde(default)]
+        nodes: Vec<serde::de::IgnoredAny>,
+    }
+    if let Ok(shape) = serde_json::from_slice::<Shape>(json_bytes) {
+        if shape.nodes.len() > crate::error::MAX_JOINTS {
+            return Err(ParseError::new(
+                "nodes",
+                format!(
+                    "{} nodes is too many (rigfit reads glTF files of at most {} nodes)",
+                    shape.nodes.len(),
+                    crate::error::MAX_JOINTS
+                ),
+            ));
+        }
+    }
     let json: Value = serde_json::from_slice(json_bytes).map_err(|e| {
         ParseError::new(
             format!("JSON line {} column {}", e.line(), e.column()),
@@ -50,6 +69,7 @@ pub(super) fn parse(
         joint_nodes: Vec::new(),
         skin: None,
         source_dir: None,
+        external_files: Vec::new(),
     };
     let skins = doc
         .json
@@ -76,7 +96,7 @@ pub(super) fn parse(
 fn resolve_buffers(
     json: &Value,
     bin: Option<&[u8]>,
-    load_uri: &mut dyn FnMut(&str) -> Result<Vec<u8>, String>,
+    load_uri: &mut LoadUri<'_>,
 ) -> Result<Vec<Vec<u8>>, ParseError> {
     let Some(buffers) = json.get("buffers").and_then(Value::as_array) else {
         return Ok(Vec::new());
@@ -109,7 +129,7 @@ fn resolve_buffers(
                     .decode(uri[comma + 1..].trim())
                     .map_err(|e| ParseError::new(&path, format!("bad base64 data: {e}")))?
             }
-            Some(uri) => load_uri(uri).map_err(|e| ParseError::new(&path, e))?,
+            Some(uri) => load_uri(uri, length).map_err(|e| ParseError::new(&path, e))?,
         };
         if data.len() < length {
             return Err(ParseError::new(
@@ -126,6 +146,20 @@ fn resolve_buffers(
 }
 
 fn numbers<const N: usize>(
+    node: &Value,
+    key: &str,
+    path: &str,
+) -> Result<Option<[f64; N]>, ParseError> {
+    let out = finite_numbers::<N>(node, key, path)?;
+    if key != "rotation" {
+        if let Some(problem) = out.iter().flatten().find_map(|&x| coordinate_problem(x)) {
+            return Err(ParseError::new(format!("{path}.{key}"), problem));
+        }
+    }
+    Ok(out)
+}
+
+fn finite_numbers<const N: usize>(
     node: &Value,
     key: &str,
     path: &str,
@@ -155,18 +189,34 @@ fn node_trs(node: &Value, path: &str) -> Result<Trs, ParseError> {
     let t = numbers::<3>(node, "translation", path)?.unwrap_or([0.0; 3]);
     let r = numbers::<4>(node, "rotation", path)?.unwrap_or([0.0, 0.0, 0.0, 1.0]);
     let s = numbers::<3>(node, "scale", path)?.unwrap_or([1.0; 3]);
-    let q = Quaternion::new(r[3], r[0], r[1], r[2]);
-    if q.norm() < 1e-12 {
-        return Err(ParseError::new(
+    let rotation = unit_quaternion(r).ok_or_else(|| {
+        ParseError::new(
             format!("{path}.rotation"),
             "rotation quaternion has zero length",
-        ));
-    }
+        )
+    })?;
     Ok(Trs {
         translation: Vector3::from(t),
-        rotation: Quat::new_normalize(q),
+        rotation,
         scale: Vector3::from(s),
     })
+}
+
+/// The unit quaternion of `[x, y, z, w]`, normalised after scaling by the largest component
+/// (so that huge components do not overflow the norm, nor tiny ones underflow it); `None`
+/// for a zero (or non-finite) quaternion.
+pub(crate) fn unit_quaternion(r: [f64; 4]) -> Option<Quat> {
+    let largest = r.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if !(largest > 0.0 && largest.is_finite()) {
+        return None;
+    }
+    let q = Quaternion::new(
+        r[3] / largest,
+        r[0] / largest,
+        r[1] / largest,
+        r[2] / largest,
+    );
+    Some(Quat::new_normalize(q))
 }
 
 /// The parent of every node (checking each node has at most one).
@@ -188,13 +238,46 @@ fn node_parents(json: &Value) -> Result<Vec<Option<usize>>, ParseError> {
                 .map(|c| c as usize)
                 .filter(|&c| c < nodes.len())
                 .ok_or_else(|| ParseError::new(&place, "not a valid node index"))?;
-            if c == i || parents[c].is_some() {
+            if c == i {
+                return Err(ParseError::new(
+                    &place,
+                    format!("joint cycle: node {c} lists itself as a child"),
+                ));
+            }
+            if parents[c].is_some() {
                 return Err(ParseError::new(
                     &place,
                     format!("node {c} has more than one parent"),
                 ));
             }
             parents[c] = Some(i);
+        }
+    }
+    // A joint cycle (every node of it has one parent, so no root above it): found by
+    // walking up from every node once, marking the nodes whose ancestry is known.
+    // 0: not visited, 1: on the current walk, 2: known to reach a root.
+    let mut state = vec![0u8; nodes.len()];
+    let mut walk = Vec::new();
+    for start in 0..nodes.len() {
+        let mut cur = Some(start);
+        while let Some(n) = cur {
+            match state[n] {
+                2 => break,
+                1 => {
+                    return Err(ParseError::new(
+                        format!("nodes[{n}]"),
+                        "joint cycle: the node is its own ancestor (the hierarchy must be a tree)",
+                    ));
+                }
+                _ => {
+                    state[n] = 1;
+                    walk.push(n);
+                    cur = parents[n];
+                }
+            }
+        }
+        for n in walk.drain(..) {
+            state[n] = 2;
         }
     }
     Ok(parents)
@@ -212,10 +295,17 @@ fn build_rig(
         .and_then(Value::as_array)
         .map(Vec::as_slice)
         .unwrap_or(&[]);
-    let skin_joints: Vec<usize> = skin
+    let listed = skin
         .get("joints")
         .and_then(Value::as_array)
-        .ok_or_else(|| ParseError::new(&skin_path, "missing 'joints'"))?
+        .ok_or_else(|| ParseError::new(&skin_path, "missing 'joints'"))?;
+    if listed.len() > crate::error::MAX_JOINTS {
+        return Err(crate::error::too_many_joints(
+            format!("{skin_path}.joints"),
+            listed.len(),
+        ));
+    }
+    let skin_joints: Vec<usize> = listed
         .iter()
         .enumerate()
         .map(|(k, j)| {
@@ -252,10 +342,17 @@ fn build_rig(
         }
     }
     let skeleton_nodes: Vec<usize> = (0..nodes.len()).filter(|&n| in_skeleton[n]).collect();
+    if skeleton_nodes.len() > crate::error::MAX_JOINTS {
+        return Err(crate::error::too_many_joints(
+            &skin_path,
+            skeleton_nodes.len(),
+        ));
+    }
     let mut local_of_node = vec![usize::MAX; nodes.len()];
     for (k, &n) in skeleton_nodes.iter().enumerate() {
         local_of_node[n] = k;
     }
+    let is_skin_joint: std::collections::HashSet<usize> = skin_joints.iter().copied().collect();
     let mut seen_names = std::collections::HashSet::new();
     let mut joints = Vec::with_capacity(skeleton_nodes.len());
     for &n in &skeleton_nodes {
@@ -273,7 +370,7 @@ fn build_rig(
             parents[n].map(|p| local_of_node[p]),
             node_trs(&nodes[n], &path)?,
         );
-        joint.kind = if skin_joints.contains(&n) {
+        joint.kind = if is_skin_joint.contains(&n) {
             JointKind::Skin
         } else {
             JointKind::Helper
@@ -282,7 +379,7 @@ fn build_rig(
     }
     let (mut skeleton, new_index) =
         Skeleton::from_unordered(joints).map_err(|e| ParseError::new(&skin_path, e.to_string()))?;
-    skeleton.set_default_dofs();
+    crate::dofs::set_default_dofs(&mut skeleton);
     let mut joint_nodes = vec![0; skeleton_nodes.len()];
     for (k, &n) in skeleton_nodes.iter().enumerate() {
         joint_nodes[new_index[k]] = n;
@@ -314,10 +411,10 @@ fn build_rig(
         }
         for (k, &j) in skeleton_of_skin_joint.iter().enumerate() {
             let mat = Matrix4::from_column_slice(&m[16 * k..16 * k + 16]);
-            if mat.iter().any(|v| !v.is_finite()) {
+            if let Some(problem) = mat.iter().find_map(|&v| coordinate_problem(v)) {
                 return Err(ParseError::new(
                     format!("accessors[{acc}]"),
-                    format!("matrix {k} is not finite"),
+                    format!("matrix {k}: {problem}"),
                 ));
             }
             inverse_bind[j] = mat;
@@ -396,10 +493,10 @@ fn read_skinned_mesh(
         let count = pos.len() / 3;
         let base = mesh.positions.len() as u32;
         for (i, c) in pos.chunks(3).enumerate() {
-            if c.iter().any(|v| !v.is_finite()) {
+            if let Some(problem) = c.iter().find_map(|&v| coordinate_problem(v)) {
                 return Err(ParseError::new(
                     format!("accessors[{position}]"),
-                    format!("vertex {i} is not finite"),
+                    format!("vertex {i}: {problem}"),
                 ));
             }
             mesh.positions.push(Point3::new(c[0], c[1], c[2]));
@@ -412,6 +509,16 @@ fn read_skinned_mesh(
                     return Err(ParseError::new(
                         format!("accessors[{a}]"),
                         "NORMAL count differs from POSITION count",
+                    ));
+                }
+                if let Some((i, problem)) = nrm.chunks(3).enumerate().find_map(|(i, c)| {
+                    c.iter()
+                        .find_map(|&v| coordinate_problem(v))
+                        .map(|p| (i, p))
+                }) {
+                    return Err(ParseError::new(
+                        format!("accessors[{a}]"),
+                        format!("normal {i}: {problem}"),
                     ));
                 }
                 normals.extend(nrm.chunks(3).map(|c| Vector3::new(c[0], c[1], c[2])));
@@ -618,22 +725,34 @@ fn read_animations(
                     format!("has {} values for {} keys", raw.len() / width, times.len()),
                 ));
             }
-            if raw.iter().any(|v| !v.is_finite()) {
-                return Err(ParseError::new(
-                    format!("{spath}.output"),
-                    "values are not finite",
-                ));
+            let problem = if width == 3 {
+                raw.iter().find_map(|&v| coordinate_problem(v))
+            } else {
+                raw.iter()
+                    .any(|v| !v.is_finite())
+                    .then(|| "values are not finite".to_string())
+            };
+            if let Some(problem) = problem {
+                return Err(ParseError::new(format!("{spath}.output"), problem));
             }
             let values = raw
                 .chunks(width)
                 .map(|v| {
                     if width == 4 {
-                        [v[0], v[1], v[2], v[3]]
+                        // Scaled by the largest component, so that normalising it later
+                        // cannot overflow (cubic-spline tangents are kept as they are).
+                        let largest = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                        let k = if per_key == 1 && largest > 1.0 {
+                            largest
+                        } else {
+                            1.0
+                        };
+                        [v[0] / k, v[1] / k, v[2] / k, v[3] / k]
                     } else {
                         [v[0], v[1], v[2], 0.0]
                     }
                 })
-                .collect();
+                .collect::<Vec<[f64; 4]>>();
             animation.channels.push(AnimationChannel {
                 joint: new_index[local],
                 target: target_kind,
@@ -658,6 +777,12 @@ pub(super) fn mesh_summaries(json: &Value) -> Vec<MeshSummary> {
         .and_then(Value::as_array)
         .map(Vec::as_slice)
         .unwrap_or(&[]);
+    let mut skinned_meshes = std::collections::HashSet::new();
+    for n in nodes {
+        if let (Some(m), Some(_)) = (n.get("mesh").and_then(Value::as_u64), n.get("skin")) {
+            skinned_meshes.insert(m);
+        }
+    }
     let count = |acc: Option<u64>| {
         acc.and_then(|a| json.pointer(&format!("/accessors/{a}/count")))
             .and_then(Value::as_u64)
@@ -690,10 +815,7 @@ pub(super) fn mesh_summaries(json: &Value) -> Vec<MeshSummary> {
                     .map_or_else(|| format!("mesh{m}"), str::to_owned),
                 vertices,
                 triangles,
-                skinned: nodes.iter().any(|n| {
-                    n.get("mesh").and_then(Value::as_u64) == Some(m as u64)
-                        && n.get("skin").is_some()
-                }),
+                skinned: skinned_meshes.contains(&(m as u64)),
             }
         })
         .collect()
