@@ -316,7 +316,7 @@ impl BvhDocument {
             })
             .collect();
         let mut skeleton = Skeleton::new(joints)?;
-        crate::dofs::set_default_dofs(&mut skeleton);
+        skeleton.set_default_dofs();
         Ok(skeleton)
     }
 

@@ -5,7 +5,6 @@
 //! to a temporary file and rename it, so no output is ever left half-written.
 
 pub mod bvh;
-mod dofs;
 pub mod error;
 pub mod files;
 pub mod gltf;

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::anyhow;
-use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem, PoseResult, solve_pose};
+use rigfit_core::pose::{PoseOptions, PoseProblem, PoseResult, solve_pose};
 use rigfit_formats::files::{commit_all, stage};
 use rigfit_formats::report::{pose_report, to_text};
 use rigfit_formats::rig_file::{RigFile, RigOptions, StartFrame, read_rig};
@@ -88,9 +88,7 @@ pub fn solve(
     };
     let t0 = Instant::now();
     let result = solve_pose(&problem, &options).map_err(|e| match e {
-        PoseError::UnknownBone { .. } | PoseError::NoBones | PoseError::NothingMoves => {
-            anyhow!("{}: {e}", rig_file.path.display())
-        }
+        e if e.is_rig_problem() => anyhow!("{}: {e}", rig_file.path.display()),
         _ => anyhow!("{}: {e}", strokes_path.display()),
     })?;
     Ok((result, t0.elapsed().as_secs_f64()))

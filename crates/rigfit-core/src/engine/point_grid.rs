@@ -59,9 +59,13 @@ impl PointGrid {
         } else {
             extent.max().max(1e-12)
         };
-        let dims = |cell: f64| extent.map(|e| (e / cell).floor() as usize + 1);
+        // `as usize` saturates, and so do the sum and the product: a cell far smaller than
+        // the extent asks for more cells than there are, never an overflow.
+        let dims = |cell: f64| extent.map(|e| ((e / cell).floor() as usize).saturating_add(1));
+        let cells =
+            |d: nalgebra::Vector3<usize>| d.iter().fold(1usize, |a, &b| a.saturating_mul(b));
         let max_cells = (CELLS_PER_POINT * points.len()).max(MIN_CELLS);
-        while dims(cell).iter().product::<usize>() > max_cells {
+        while cells(dims(cell)) > max_cells {
             cell *= 2.0;
         }
         let d = dims(cell);

@@ -379,7 +379,7 @@ fn build_rig(
     }
     let (mut skeleton, new_index) =
         Skeleton::from_unordered(joints).map_err(|e| ParseError::new(&skin_path, e.to_string()))?;
-    crate::dofs::set_default_dofs(&mut skeleton);
+    skeleton.set_default_dofs();
     let mut joint_nodes = vec![0; skeleton_nodes.len()];
     for (k, &n) in skeleton_nodes.iter().enumerate() {
         joint_nodes[new_index[k]] = n;
