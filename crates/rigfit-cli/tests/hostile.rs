@@ -915,6 +915,31 @@ fn deep_and_wide_joint_trees_take_near_linear_time() {
 }
 
 #[test]
+fn posing_huge_trees_is_bounded() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let strokes = d.join("strokes.json");
+    std::fs::write(&strokes, strokes_json()).expect("write");
+    // Past the solver's joint bound: refused in one line naming the rig.
+    let wide = d.join("wide.bvh");
+    std::fs::write(&wide, wide_bvh(100_000)).expect("write");
+    let out = d.join("posed.bvh");
+    let r = refused_in(
+        d,
+        &["pose", s(&wide), s(&strokes), "-o", s(&out)],
+        "wide.bvh: the rig has 100001 joints",
+    );
+    eprintln!("pose, 100,000-wide BVH: refused in {:.2} s", r.seconds);
+    // Within it: posed in bounded time.
+    let deep = d.join("deep.bvh");
+    std::fs::write(&deep, deep_bvh(5_000)).expect("write");
+    let r = run(&["pose", s(&deep), s(&strokes), "-o", s(&out)]);
+    assert_eq!(r.output.status.code(), Some(0), "{}", stderr(&r.output));
+    assert_within_limits(&r);
+    eprintln!("pose, 5,000-deep BVH chain: {:.2} s", r.seconds);
+}
+
+#[test]
 fn a_million_joints_is_refused_quickly() {
     let dir = tempfile::tempdir().expect("temp dir");
     let d = dir.path();
