@@ -659,19 +659,39 @@ async fn bad_uploads_get_the_readers_line() {
             .into_owned();
         let bytes = std::fs::read(&path).expect("reads");
         let answer = post(&router, &format!("/api/characters?name={name}"), bytes).await;
-        let line = answer.error();
         match path.extension().and_then(|e| e.to_str()) {
             Some("glb" | "gltf" | "bvh") => {
-                assert_status(&answer, StatusCode::BAD_REQUEST);
                 let expected = read_rig(&path, &RigOptions::default())
                     .expect_err("malformed")
                     .to_string()
                     .replace(&path.display().to_string(), &name);
-                assert_eq!(line, expected);
+                if expected.contains(": images[") {
+                    // An image URI is a rule of files on disk (a written glTF keeps pointing
+                    // at it); an upload reads no file and writes none, so it is taken.
+                    assert_status(&answer, StatusCode::CREATED);
+                    let id = answer.json()["id"].as_str().expect("an id").to_owned();
+                    let request = Request::delete(format!("/api/characters/{id}"))
+                        .body(Body::empty())
+                        .expect("request");
+                    let gone = send(&router, request).await;
+                    assert_status(&gone, StatusCode::NO_CONTENT);
+                    continue;
+                }
+                assert_status(&answer, StatusCode::BAD_REQUEST);
+                let line = answer.error();
+                // A buffer URI the command line refuses by its path is refused by an upload
+                // before any path rule: uploads read no file at all.
+                let uploads_read_no_file = expected.contains("URI")
+                    && line.contains("external buffer")
+                    && line.contains("cannot be read from memory");
+                if !uploads_read_no_file {
+                    assert_eq!(line, expected);
+                }
                 checked += 1;
             }
             _ => {
                 assert_status(&answer, StatusCode::UNSUPPORTED_MEDIA_TYPE);
+                let line = answer.error();
                 assert!(
                     line.starts_with(&format!("{name}: unsupported file type")),
                     "{line}"
