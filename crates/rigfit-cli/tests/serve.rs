@@ -4,6 +4,8 @@
 //! 2 before listening.
 
 mod common;
+#[path = "../../rigfit-server/tests/common/rigs.rs"]
+mod rigs;
 
 use std::io::{BufRead as _, BufReader, Read as _, Write as _};
 use std::net::{SocketAddr, TcpStream};
@@ -176,32 +178,7 @@ fn serve_with_a_bad_rig_is_one_line_and_exit_2() {
     assert_bad_input(&o, std::path::Path::new("notes.txt"));
 }
 
-/// A BVH rig of 50 chains of 20 joints fanning out from the hips (1051 joints, one frame).
-fn tree_bvh() -> String {
-    let (chains, depth) = (50, 20);
-    let mut text = String::from(
-        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n",
-    );
-    for c in 0..chains {
-        let a = std::f64::consts::TAU * c as f64 / chains as f64;
-        for d in 0..depth {
-            let r = if d == 0 { 0.05 } else { 0.025 };
-            text.push_str(&format!(
-                "JOINT C{c}_{d}\n{{\n OFFSET {:.4} 0.05 {:.4}\n CHANNELS 3 Zrotation Xrotation Yrotation\n",
-                r * a.cos(),
-                r * a.sin()
-            ));
-        }
-        text.push_str("End Site\n{\n OFFSET 0 0.05 0\n}\n");
-        text.push_str(&"}\n".repeat(depth));
-    }
-    text.push_str("}\nMOTION\nFrames: 1\nFrame Time: 0.04\n");
-    text.push_str(&vec!["0"; 6 + 3 * chains * depth].join(" "));
-    text.push('\n');
-    text
-}
-
-/// A solve that runs for many seconds on [`tree_bvh`]'s rig: 200 strokes of varied lengths.
+/// A solve that runs for many seconds on [`rigs::tree_bvh`]'s rig (50 chains of 20 joints): 200 strokes of varied lengths.
 fn heavy_solve(seed: usize) -> String {
     let strokes: Vec<String> = (0..200)
         .map(|s| {
@@ -226,7 +203,7 @@ fn sigterm_with_solves_under_way_exits_within_5_s() {
         addr,
         "/api/characters?name=tree.bvh",
         "application/octet-stream",
-        tree_bvh().as_bytes(),
+        rigs::tree_bvh(50, 20).as_bytes(),
     );
     assert_eq!(status, 201, "{body}");
     // Three solves (more than the workers of a small machine), their clients waiting.

@@ -58,36 +58,10 @@ fn small_solve() -> String {
         .to_string()
 }
 
-/// A BVH rig of `chains` chains of `depth` joints fanning out from the hips (one frame, at
-/// rest), 1.05 units high for 20 joints a chain.
-fn tree_bvh(chains: usize, depth: usize) -> String {
-    let mut text = String::from(
-        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n",
-    );
-    for c in 0..chains {
-        let a = std::f64::consts::TAU * c as f64 / chains as f64;
-        for d in 0..depth {
-            let r = if d == 0 { 0.05 } else { 0.025 };
-            text.push_str(&format!(
-                "JOINT C{c}_{d}\n{{\n OFFSET {:.4} 0.05 {:.4}\n CHANNELS 3 Zrotation Xrotation Yrotation\n",
-                r * a.cos(),
-                r * a.sin()
-            ));
-        }
-        text.push_str("End Site\n{\n OFFSET 0 0.05 0\n}\n");
-        text.push_str(&"}\n".repeat(depth));
-    }
-    text.push_str("}\nMOTION\nFrames: 1\nFrame Time: 0.04\n");
-    let channels = 6 + 3 * chains * depth;
-    text.push_str(&vec!["0"; channels].join(" "));
-    text.push('\n');
-    text
-}
-
 /// Uploads a 1051-joint rig (50 chains of 20 joints) on which the heaviest solve a request
 /// may ask takes seconds; its id.
 fn upload_big_rig(addr: SocketAddr) -> String {
-    common::load::upload(addr, "tree.bvh", tree_bvh(50, 20).as_bytes())
+    common::load::upload(addr, "tree.bvh", common::rigs::tree_bvh(50, 20).as_bytes())
 }
 
 /// A solve that runs for seconds on [`upload_big_rig`]'s rig (about 19 s in a debug build):

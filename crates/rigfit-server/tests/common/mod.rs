@@ -4,6 +4,7 @@
 
 pub mod http;
 pub mod load;
+pub mod rigs;
 
 use std::path::PathBuf;
 
