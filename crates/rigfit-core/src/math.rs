@@ -14,6 +14,19 @@ pub type Matrix3 = nalgebra::Matrix3<Real>;
 /// A 4x4 homogeneous matrix (affine transforms, possibly with scale).
 pub type Matrix4 = nalgebra::Matrix4<Real>;
 
+/// The largest coordinate magnitude rigfit takes, in any unit (a trillion: a thousand
+/// kilometres in micrometres). Beyond it, squares and sums of squares lose all precision or
+/// overflow: readers refuse such numbers and the solvers refuse such points.
+pub const MAX_COORDINATE: Real = 1e12;
+
+/// The index of the first point with a coordinate beyond [`MAX_COORDINATE`] (NaN is not
+/// beyond it: check finiteness first).
+pub fn first_out_of_range(points: &[Point3]) -> Option<usize> {
+    points
+        .iter()
+        .position(|p| p.iter().any(|x| x.abs() > MAX_COORDINATE))
+}
+
 /// A transform made of a translation, a rotation and a per-axis scale, applied as
 /// `T * R * S` (the glTF node convention).
 #[derive(Clone, Copy, Debug, PartialEq)]

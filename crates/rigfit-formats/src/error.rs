@@ -106,7 +106,7 @@ pub fn too_many_joints(place: impl Into<String>, count: usize) -> ParseError {
 
 /// The largest coordinate magnitude rigfit reads (positions, offsets, translations, scales,
 /// motion values): beyond it, squares and sums of squares lose all meaning or overflow.
-pub const MAX_COORDINATE: f64 = 1e12;
+pub const MAX_COORDINATE: f64 = rigfit_core::math::MAX_COORDINATE;
 
 /// What is wrong with a coordinate (`None` when nothing): not a finite number, or too large.
 pub fn coordinate_problem(x: f64) -> Option<String> {

@@ -57,16 +57,8 @@ pub enum SurfaceError {
     Solve(#[from] SolveError),
 }
 
-/// The largest coordinate magnitude the tracker takes, in any unit (a trillion: a thousand
-/// kilometres in micrometres); beyond it the solver's sums of squares lose all precision.
-pub const MAX_COORDINATE: f64 = 1e12;
-
-/// The index of the first point with a coordinate beyond [`MAX_COORDINATE`].
-pub(crate) fn first_out_of_range(points: &[Point3]) -> Option<usize> {
-    points
-        .iter()
-        .position(|p| p.iter().any(|x| x.abs() > MAX_COORDINATE))
-}
+pub use crate::math::MAX_COORDINATE;
+use crate::math::first_out_of_range;
 
 /// Everything that tunes the tracker. Lengths are fractions of the reference's bounding-box
 /// diagonal.

@@ -99,7 +99,7 @@ impl PatchModel {
                 index: i,
             });
         }
-        if let Some(index) = super::first_out_of_range(&rest) {
+        if let Some(index) = crate::math::first_out_of_range(&rest) {
             return Err(SurfaceError::OutOfRange {
                 what: "reference vertex",
                 index,

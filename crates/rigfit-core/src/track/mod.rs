@@ -129,6 +129,11 @@ pub enum TrackError {
     EmptyCloud,
     #[error("point {index}: coordinate is not a finite number")]
     NonFinite { index: usize },
+    #[error(
+        "point {index}: a coordinate is beyond +-{:e}, out of range (a unit or export mistake)",
+        crate::math::MAX_COORDINATE
+    )]
+    OutOfRange { index: usize },
     #[error("the rig has no volume to track: no mesh and no bones of any length")]
     NoParts,
     #[error("the rig has no joints that can move")]
@@ -381,6 +386,9 @@ impl Tracker {
         }
         if let Some(index) = data.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             return Err(TrackError::NonFinite { index });
+        }
+        if let Some(index) = crate::math::first_out_of_range(data) {
+            return Err(TrackError::OutOfRange { index });
         }
         let h = self.model.height;
         let before = self.pose.clone();
