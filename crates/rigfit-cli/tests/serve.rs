@@ -231,16 +231,6 @@ fn sigterm_with_solves_under_way_exits_within_5_s() {
     drop(clients);
 }
 
-/// A BVH of one moving joint with `frames` frames (about 18 bytes a frame).
-fn long_bvh(frames: usize) -> Vec<u8> {
-    let mut text = String::from(
-        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n End Site\n {\n  OFFSET 0 1 0\n }\n}\nMOTION\n",
-    );
-    text.push_str(&format!("Frames: {frames}\nFrame Time: 0.0083333\n"));
-    text.push_str(&"0.1 0.2 0.3 0 0 0\n".repeat(frames));
-    text.into_bytes()
-}
-
 #[test]
 fn resident_memory_stays_within_the_budget_however_many_uploads() {
     const MIB: u64 = 1 << 20;
@@ -248,7 +238,7 @@ fn resident_memory_stays_within_the_budget_however_many_uploads() {
     let (child, addr, _) = start(&["--memory-budget", &budget_mib.to_string()]);
     let pid = child.id();
     let (base, _) = resident_memory(pid);
-    let bvh = long_bvh(460_000); // 8 MiB
+    let bvh = rigs::long_bvh(460_000); // 8 MiB
     let upload = || {
         http_post(
             addr,

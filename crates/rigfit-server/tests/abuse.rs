@@ -452,16 +452,6 @@ fn idle_and_partial_connections_do_not_starve_the_server() {
     assert_serving(addr);
 }
 
-/// A BVH of one moving joint with `frames` frames (about 18 bytes a frame).
-fn long_bvh(frames: usize) -> Vec<u8> {
-    let mut text = String::from(
-        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n End Site\n {\n  OFFSET 0 1 0\n }\n}\nMOTION\n",
-    );
-    text.push_str(&format!("Frames: {frames}\nFrame Time: 0.0083333\n"));
-    text.push_str(&"0.1 0.2 0.3 0 0 0\n".repeat(frames));
-    text.into_bytes()
-}
-
 #[test]
 fn uploads_past_the_memory_budget_are_refused_and_delete_frees_it() {
     let budget = 96 << 20;
@@ -471,7 +461,7 @@ fn uploads_past_the_memory_budget_are_refused_and_delete_frees_it() {
     });
     let addr = server.addr;
     let store = &server.state.characters;
-    let bvh = long_bvh(60_000);
+    let bvh = common::rigs::long_bvh(60_000);
     let mut ids = Vec::new();
     let refused = loop {
         let answer = request(addr, "POST", "/api/characters?name=long.bvh", &bvh).expect("answer");
@@ -522,7 +512,7 @@ fn a_client_that_stops_reading_is_disconnected() {
     });
     let addr = server.addr;
     // A display model of about 16 MiB: more than the sockets' buffers hold.
-    let id = common::load::upload(addr, "long.bvh", &long_bvh(460_000));
+    let id = common::load::upload(addr, "long.bvh", &common::rigs::long_bvh(460_000));
     let mut stream = connect(addr).expect("connects");
     write!(
         stream,

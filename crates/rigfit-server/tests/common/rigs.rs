@@ -1,4 +1,4 @@
-//! Generated rigs for tests that need a slow solve (shared with rigfit-cli's tests/serve.rs
+//! Generated rigs for tests that need a slow solve or a big upload (shared with rigfit-cli's tests/serve.rs
 //! through `#[path]`).
 
 /// A BVH rig of `chains` chains of `depth` joints fanning out from the hips (one frame, at
@@ -25,4 +25,14 @@ pub fn tree_bvh(chains: usize, depth: usize) -> String {
     text.push_str(&vec!["0"; channels].join(" "));
     text.push('\n');
     text
+}
+
+/// A BVH of one moving joint with `frames` frames (about 18 bytes a frame).
+pub fn long_bvh(frames: usize) -> Vec<u8> {
+    let mut text = String::from(
+        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n End Site\n {\n  OFFSET 0 1 0\n }\n}\nMOTION\n",
+    );
+    text.push_str(&format!("Frames: {frames}\nFrame Time: 0.0083333\n"));
+    text.push_str(&"0.1 0.2 0.3 0 0 0\n".repeat(frames));
+    text.into_bytes()
 }
