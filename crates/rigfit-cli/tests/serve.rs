@@ -55,6 +55,11 @@ fn http_get(addr: SocketAddr, path: &str) -> (u16, String) {
     .expect("request sent");
     let mut answer = String::new();
     stream.read_to_string(&mut answer).expect("answer");
+    status_and_body(&answer)
+}
+
+/// The status code and body of a raw HTTP/1.1 answer (status 0 when there is none).
+fn status_and_body(answer: &str) -> (u16, String) {
     let status = answer
         .split_whitespace()
         .nth(1)
@@ -83,15 +88,7 @@ fn http_post(addr: SocketAddr, path: &str, content_type: &str, body: &[u8]) -> (
     let mut answer = Vec::new();
     let _ = stream.read_to_end(&mut answer);
     let answer = String::from_utf8_lossy(&answer).into_owned();
-    let status = answer
-        .split_whitespace()
-        .nth(1)
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0);
-    let body = answer
-        .split_once("\r\n\r\n")
-        .map_or(String::new(), |(_, b)| b.to_string());
-    (status, body)
+    status_and_body(&answer)
 }
 
 /// A process's resident memory and its peak (`VmRSS`, `VmHWM`), in bytes.

@@ -71,18 +71,9 @@ impl FormatError {
     }
 }
 
-/// Reads a whole input file, naming it in the error: a regular file (not a FIFO, device or
-/// directory) of at most [`crate::files::MAX_INPUT_BYTES`].
-pub fn read_bytes(path: &Path) -> Result<Vec<u8>, FormatError> {
-    crate::files::read_input(path)
-}
-
-/// Writes a file atomically: the bytes go to an exclusively created temporary file with a
-/// random name beside it, which is then renamed over the target, so a failure never leaves a
-/// half-written file. A target that is a symbolic link or not a regular file is refused.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FormatError> {
-    crate::files::write_atomic(path, bytes)
-}
+// The readers and writers of every format read and write through `files` (regular inputs of
+// bounded size; exclusive temporaries renamed into place).
+pub use crate::files::{read_input as read_bytes, write_atomic};
 
 /// The lower-case extension of a path ("" when none).
 pub fn extension(path: &Path) -> String {

@@ -59,12 +59,15 @@ const O_NONBLOCK: i32 = 0x0004;
 /// `limit` bytes. It is opened non-blocking, so a FIFO put in its place cannot block, and
 /// checked again on the open handle. Returns the file and its length.
 pub fn open_regular(path: &Path, limit: u64) -> io::Result<(File, u64)> {
-    let meta = std::fs::metadata(path)?;
-    if !meta.is_file() {
-        return Err(refused(format!(
+    let not_regular = |meta: &std::fs::Metadata| {
+        refused(format!(
             "is {}, not a regular file; rigfit reads regular files only",
             kind_of(meta.file_type())
-        )));
+        ))
+    };
+    let meta = std::fs::metadata(path)?;
+    if !meta.is_file() {
+        return Err(not_regular(&meta));
     }
     let mut options = OpenOptions::new();
     options.read(true);
@@ -83,10 +86,7 @@ pub fn open_regular(path: &Path, limit: u64) -> io::Result<(File, u64)> {
     let file = options.open(path)?;
     let meta = file.metadata()?;
     if !meta.is_file() {
-        return Err(refused(format!(
-            "is {}, not a regular file; rigfit reads regular files only",
-            kind_of(meta.file_type())
-        )));
+        return Err(not_regular(&meta));
     }
     let len = meta.len();
     if len > limit {
@@ -321,11 +321,6 @@ fn resolved_name(path: &Path) -> PathBuf {
         Some(name) => dir.join(name),
         None => dir,
     }
-}
-
-/// Whether two paths name the same existing file.
-pub fn same_file(a: &Path, b: &Path) -> bool {
-    matches!((file_id(a), file_id(b)), (Some(x), Some(y)) if x == y)
 }
 
 /// Checks a command's outputs against its inputs before any work: every output passes

@@ -334,12 +334,6 @@ fn output_dir(out: &Path) -> Option<&Path> {
 }
 
 impl RigFile {
-    /// Writes the rig with one pose per time step to `out` (the bytes of
-    /// [`Self::poses_bytes`]).
-    pub fn write_poses(&self, out: &Path, poses: &[Pose], fps: f64) -> Result<(), FormatError> {
-        write_atomic(out, &self.poses_bytes(out, poses, fps)?)
-    }
-
     /// The bytes of the rig with one pose per time step, `1 / fps` seconds apart, in the
     /// format of `out`'s extension:
     /// - `.glb`/`.gltf` from a glTF source: the input file with the last pose as node

@@ -185,12 +185,8 @@ impl Reservation<'_> {
     pub fn resize(&mut self, bytes: usize) -> Result<(), StoreFull> {
         let mut inner = self.store.write();
         let others = inner.used().saturating_sub(self.bytes);
-        if bytes > self.bytes && others.saturating_add(bytes) > self.store.budget {
-            return Err(StoreFull::Memory {
-                needed: bytes,
-                used: others,
-                budget: self.store.budget,
-            });
+        if bytes > self.bytes {
+            self.store.room_for(others, bytes)?;
         }
         inner.reserved_bytes = others.saturating_sub(inner.stored_bytes) + bytes;
         self.bytes = bytes;
@@ -220,6 +216,18 @@ impl CharacterStore {
         self.inner.read().unwrap_or_else(PoisonError::into_inner)
     }
 
+    /// Whether `bytes` more fit in the budget beside `used` bytes already taken.
+    fn room_for(&self, used: usize, bytes: usize) -> Result<(), StoreFull> {
+        if used.saturating_add(bytes) > self.budget {
+            return Err(StoreFull::Memory {
+                needed: bytes,
+                used,
+                budget: self.budget,
+            });
+        }
+        Ok(())
+    }
+
     /// The memory budget, in bytes.
     pub fn budget(&self) -> usize {
         self.budget
@@ -237,13 +245,7 @@ impl CharacterStore {
         if inner.characters.len() >= MAX_CHARACTERS {
             return Err(StoreFull::Count);
         }
-        if inner.used().saturating_add(bytes) > self.budget {
-            return Err(StoreFull::Memory {
-                needed: bytes,
-                used: inner.used(),
-                budget: self.budget,
-            });
-        }
+        self.room_for(inner.used(), bytes)?;
         inner.reserved_bytes += bytes;
         Ok(Reservation { store: self, bytes })
     }
@@ -285,14 +287,7 @@ impl CharacterStore {
             return Err(StoreFull::Count);
         }
         if let Some(held) = reserved {
-            let others = inner.used().saturating_sub(held);
-            if others.saturating_add(bytes) > self.budget {
-                return Err(StoreFull::Memory {
-                    needed: bytes,
-                    used: others,
-                    budget: self.budget,
-                });
-            }
+            self.room_for(inner.used().saturating_sub(held), bytes)?;
         }
         let id = format!("c{}", inner.next_id);
         inner.next_id += 1;
@@ -318,16 +313,6 @@ impl CharacterStore {
             .iter()
             .map(|(c, _)| Arc::clone(c))
             .collect()
-    }
-
-    /// How many characters the store holds.
-    pub fn len(&self) -> usize {
-        self.read().characters.len()
-    }
-
-    /// True when the store holds no character.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
     }
 
     /// Removes a character and gives back its share of the budget (its memory is freed

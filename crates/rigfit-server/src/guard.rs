@@ -124,7 +124,7 @@ pub fn is_own_origin(origin: &str, host: &str) -> bool {
 /// that is not the server's own (another site's page, `null`) gets 403. Requests without
 /// `Origin` (curl, scripts; browsers' own same-origin page loads) go on.
 pub async fn callers(State(state): State<AppState>, request: Request, next: Next) -> Response {
-    if let Err(e) = check_caller(request.headers(), state.loopback_only) {
+    if let Err(e) = check_caller(request.headers(), state.config().loopback_only) {
         return e.into_response();
     }
     next.run(request).await

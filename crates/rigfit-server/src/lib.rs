@@ -83,20 +83,15 @@ impl Default for ServerConfig {
 pub struct AppState {
     pub characters: Arc<CharacterStore>,
     workers: Arc<Semaphore>,
-    worker_count: usize,
-    loopback_only: bool,
     config: Arc<ServerConfig>,
 }
 
 impl AppState {
     /// A server state holding no character yet.
     pub fn new(config: &ServerConfig) -> Self {
-        let worker_count = config.workers.max(1);
         Self {
             characters: Arc::new(CharacterStore::with_budget(config.memory_budget)),
-            workers: Arc::new(Semaphore::new(worker_count)),
-            worker_count,
-            loopback_only: config.loopback_only,
+            workers: Arc::new(Semaphore::new(config.workers.max(1))),
             config: Arc::new(config.clone()),
         }
     }
@@ -109,8 +104,7 @@ impl AppState {
     /// How many jobs (reads, solves, writes) are running on the blocking pool now. A job
     /// whose request was cancelled counts until it has actually stopped.
     pub fn busy_workers(&self) -> usize {
-        self.worker_count
-            .saturating_sub(self.workers.available_permits())
+        (self.config.workers.max(1)).saturating_sub(self.workers.available_permits())
     }
 
     /// Adds a character read from a file (`path` gives its name and format); it counts

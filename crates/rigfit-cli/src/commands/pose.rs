@@ -113,10 +113,9 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
     let rig_inputs = super::rig_inputs(&rig_file);
     let mut inputs: Vec<&Path> = rig_inputs.iter().map(PathBuf::as_path).collect();
     inputs.push(&args.strokes);
-    super::check_files(&inputs, &outputs)?;
-    if let Some(out) = &args.output {
-        rig_file.check_output_format(out)?;
-    }
+    // The inputs were checked before reading (a glTF's buffers as they were read): only the
+    // outputs are checked again, against the buffer files too.
+    rigfit_formats::files::check_outputs(&inputs, &outputs)?;
     if let Some(out) = &args.output {
         rig_file.check_output_format(out)?;
     }

@@ -156,7 +156,9 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     let rig_file = read_rig(&args.rig, &rig_options)?;
     let rig_inputs = super::rig_inputs(&rig_file);
     inputs.extend(rig_inputs.iter().map(PathBuf::as_path));
-    super::check_files(&inputs, &outputs)?;
+    // The inputs were checked before reading (a glTF's buffers as they were read): only the
+    // outputs are checked again, against the buffer files too.
+    rigfit_formats::files::check_outputs(&inputs, &outputs)?;
     if let Some(out) = &args.output {
         rig_file.check_output_format(out)?;
     }

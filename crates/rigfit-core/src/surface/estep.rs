@@ -14,7 +14,7 @@ use rayon::prelude::*;
 
 use super::model::{PatchModel, PatchPose, Predictions};
 use super::nearest::{NearTree, NearestFew};
-pub use super::point_tree::PointTree;
+use super::point_tree::PointTree;
 use crate::geometry::Aabb;
 use crate::math::{Matrix3, Point3, Vector3};
 
