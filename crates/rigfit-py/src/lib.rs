@@ -25,7 +25,7 @@ pub(crate) fn error(message: impl Into<String>) -> PyErr {
 
 /// Pose rigged characters from 3D strokes and track articulated bodies in point clouds.
 #[pymodule]
-fn rigfit(m: &Bound<'_, PyModule>) -> PyResult<()> {
+fn _rigfit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("RigfitError", m.py().get_type::<RigfitError>())?;
     m.add_class::<skeleton::PySkeleton>()?;
