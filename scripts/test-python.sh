@@ -4,9 +4,11 @@
 #    (real Blender as a headless Python module);
 # 2. the rigfit wheel (abi3, manylinux_2_28) built by maturin with zig, installed in the venv;
 # 3. pytest on the package (python/tests);
-# 4. the extension zip with the wheel (scripts/build-blender-extension.sh);
-# 5. the Blender tests (python/blender_tests) under a timeout: the zip installed into a
-#    temporary user resource folder, a scene built, strokes fed, operators run.
+# 4. the extension zip with the wheel, validated and built by Blender's own extension tool
+#    (scripts/build-blender-extension.sh);
+# 5. the Blender tests (python/blender_tests) under a timeout: Blender's validator on the
+#    manifest and the zip; the zip installed into a temporary user resource folder, a scene
+#    built, strokes fed, operators run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
