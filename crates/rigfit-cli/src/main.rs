@@ -1,12 +1,11 @@
 //! `rigfit`: the command line. A thin shell: it parses arguments, calls the readers, the
 //! solvers and the writers, and turns every error into one line on stderr and exit status 2.
 
-mod commands;
-
 use std::process::ExitCode;
 
 use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
+use rigfit_cli::commands;
 
 /// Fits skeletons and deformable surfaces to 3D data: strokes, point clouds, scans.
 #[derive(Debug, Parser)]
@@ -33,7 +32,10 @@ enum Command {
     /// Track a reference mesh through a sequence of point clouds or meshes.
     Surface(commands::surface::SurfaceArgs),
     /// The sketching page in a browser: serve it and its API on 127.0.0.1 (docs/serve-api.md).
+    #[cfg(feature = "serve")]
     Serve(commands::serve::ServeArgs),
+    /// Run many takes (pose, track and surface jobs) from a JSON job file, reporting each.
+    Batch(commands::batch::BatchArgs),
 }
 
 fn main() -> ExitCode {
@@ -53,14 +55,21 @@ fn main() -> ExitCode {
         Err(e) => return argument_error(&e),
     };
     let result = match cli.command {
-        Command::Pose(args) => commands::pose::run(&args),
-        Command::Track(args) => commands::track::run(&args),
+        Command::Pose(args) => commands::pose::run(&args).map(|summary| print!("{summary}")),
+        Command::Track(args) => commands::track::run(&args).map(|summary| print!("{summary}")),
         Command::Demo(args) => commands::demo::run(&args),
         Command::Info(args) => commands::info::run(&args),
         Command::DemoRig(args) => commands::demo_rig::run(&args),
         Command::Render(args) => commands::render::run(&args),
-        Command::Surface(args) => commands::surface::run(&args),
+        Command::Surface(args) => commands::surface::run(&args).map(|summary| print!("{summary}")),
+        #[cfg(feature = "serve")]
         Command::Serve(args) => commands::serve::run(&args),
+        // Exit status 1 when some takes failed (each reported), 2 for a bad job file.
+        Command::Batch(args) => match commands::batch::run(&args) {
+            Ok(outcome) if outcome.failed() == 0 => Ok(()),
+            Ok(_) => return ExitCode::from(1),
+            Err(e) => Err(e),
+        },
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -83,29 +92,8 @@ fn argument_error(e: &clap::Error) -> ExitCode {
             ExitCode::SUCCESS
         }
         _ => {
-            eprintln!("rigfit: error: {}", one_line(e));
+            eprintln!("rigfit: error: {}", commands::argument_line(e, ""));
             ExitCode::from(2)
         }
     }
-}
-
-/// The first line of clap's message without its `error: ` prefix, and a pointer to `--help`.
-fn one_line(e: &clap::Error) -> String {
-    if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
-        return "a command is required (see rigfit --help)".into();
-    }
-    // The first paragraph (a missing-arguments message lists them on the lines below).
-    let text = e.render().to_string();
-    let first: Vec<&str> = text
-        .lines()
-        .map(str::trim)
-        .skip_while(|l| l.is_empty())
-        .take_while(|l| !l.is_empty())
-        .collect();
-    let first = first.join(" ");
-    let first = first.strip_prefix("error:").unwrap_or(&first).trim();
-    if first.is_empty() {
-        return "invalid arguments (see rigfit --help)".into();
-    }
-    format!("{first} (see rigfit --help)")
 }

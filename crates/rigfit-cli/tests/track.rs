@@ -10,51 +10,6 @@ mod track_suites;
 use std::path::{Path, PathBuf};
 
 use common::{assert_bad_input, rigfit, stderr};
-use rigfit_core::TriMesh;
-use rigfit_core::track::cases::SequenceOptions;
-use rigfit_formats::ply::write_ply;
-use rigfit_formats::rig_file::{RigOptions, read_rig};
-
-/// Writes a suite's first `n` frames as PLY clouds and its first true pose as the start
-/// rig (`start.glb` / `start.bvh`). Returns the start rig and the frame files.
-fn write_sequence(
-    dir: &Path,
-    name: &'static str,
-    n: usize,
-) -> (PathBuf, Vec<PathBuf>, track_suites::TrackSuite) {
-    // The full 60-frame motion (the scripted hand's speed depends on it), first n frames.
-    let mut suite = track_suites::suite(name, track_suites::FRAMES, &SequenceOptions::default());
-    suite.frames.truncate(n);
-    let source = match name {
-        "01_01" => "cmu/01_01.bvh",
-        "hand" => "webxr_hand/left.glb",
-        _ => "assimp/BCN_Epileptic.glb",
-    };
-    let rig_file = read_rig(&track_suites::asset(source), &RigOptions::default()).expect("rig");
-    let start = dir.join(if source.ends_with(".bvh") {
-        "start.bvh"
-    } else {
-        "start.glb"
-    });
-    rig_file
-        .write_pose(&start, &suite.frames[0].truth, None)
-        .expect("start rig written");
-    let files = suite
-        .frames
-        .iter()
-        .enumerate()
-        .map(|(k, f)| {
-            let path = dir.join(format!("frame_{k:04}.ply"));
-            let cloud = TriMesh {
-                vertices: f.points.clone(),
-                ..TriMesh::default()
-            };
-            write_ply(&path, &cloud).expect("frame written");
-            path
-        })
-        .collect();
-    (start, files, suite)
-}
 
 fn args<'a>(head: &[&'a str], files: &'a [PathBuf], tail: &[&'a str]) -> Vec<&'a str> {
     let mut v: Vec<&str> = head.to_vec();
@@ -66,7 +21,7 @@ fn args<'a>(head: &[&'a str], files: &'a [PathBuf], tail: &[&'a str]) -> Vec<&'a
 #[test]
 fn tracks_a_hand_through_ply_frames_and_writes_glb_bvh_report_and_picture() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let (start, files, suite) = write_sequence(dir.path(), "hand", 10);
+    let (start, files, suite) = track_suites::write_sequence(dir.path(), "hand", 10);
     let out = dir.path().join("track.glb");
     let report = dir.path().join("track.json");
     let picture = dir.path().join("track.png");
@@ -154,7 +109,7 @@ fn tracks_a_hand_through_ply_frames_and_writes_glb_bvh_report_and_picture() {
 #[test]
 fn tracks_a_bare_bvh_skeleton() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let (start, files, _) = write_sequence(dir.path(), "01_01", 5);
+    let (start, files, _) = track_suites::write_sequence(dir.path(), "01_01", 5);
     let out = dir.path().join("track.bvh");
     let o = rigfit(&args(
         &["track", start.to_str().expect("utf-8")],
@@ -169,7 +124,7 @@ fn tracks_a_bare_bvh_skeleton() {
 #[test]
 fn bad_frames_stop_with_one_line_and_keep_what_was_tracked() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let (start, mut files, _) = write_sequence(dir.path(), "hand", 3);
+    let (start, mut files, _) = track_suites::write_sequence(dir.path(), "hand", 3);
     let start_s = start.to_str().expect("utf-8").to_string();
 
     // An empty cloud.

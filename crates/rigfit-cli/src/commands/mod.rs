@@ -1,10 +1,12 @@
 //! One module per subcommand.
 
+pub mod batch;
 pub mod demo;
 pub mod demo_rig;
 pub mod info;
 pub mod pose;
 pub mod render;
+#[cfg(feature = "serve")]
 pub mod serve;
 pub mod surface;
 pub mod track;
@@ -70,4 +72,31 @@ pub fn check_rig_options(
         );
     }
     Ok(())
+}
+
+/// A clap error as one line: the first paragraph of its message without the `error: `
+/// prefix, and a pointer to the help of `command` (empty: the top level).
+pub fn argument_line(e: &clap::Error, command: &str) -> String {
+    let help = if command.is_empty() {
+        "rigfit --help".to_string()
+    } else {
+        format!("rigfit {command} --help")
+    };
+    if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+        return format!("a command is required (see {help})");
+    }
+    // The first paragraph (a missing-arguments message lists them on the lines below).
+    let text = e.render().to_string();
+    let first: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .skip_while(|l| l.is_empty())
+        .take_while(|l| !l.is_empty())
+        .collect();
+    let first = first.join(" ");
+    let first = first.strip_prefix("error:").unwrap_or(&first).trim();
+    if first.is_empty() {
+        return format!("invalid arguments (see {help})");
+    }
+    format!("{first} (see {help})")
 }

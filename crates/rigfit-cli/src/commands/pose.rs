@@ -52,6 +52,9 @@ pub struct PoseArgs {
     pub render: Option<PathBuf>,
     #[command(flatten)]
     pub picture: super::render::PictureArgs,
+    /// No progress bar (a take run by `rigfit batch`); not an option of the command line.
+    #[arg(skip)]
+    pub quiet: bool,
 }
 
 /// Parses `--start-frame`.
@@ -94,7 +97,8 @@ pub fn solve(
     Ok((result, t0.elapsed().as_secs_f64()))
 }
 
-pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
+/// Poses the rig and writes the outputs; returns the summary to print (lines ending in `\n`).
+pub fn run(args: &PoseArgs) -> anyhow::Result<String> {
     super::check_rig_options(&args.rig, args.skin.as_deref(), args.start_frame.as_deref())?;
     let options = RigOptions {
         skin: args.skin.clone(),
@@ -167,8 +171,8 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
     }
     commit_all(staged)?;
     let matched = result.stroke_bones.iter().filter(|b| !b.is_empty()).count();
-    println!(
-        "posed {} from {} strokes ({} matched to bones, {} set aside) in {:.1} ms",
+    let mut summary = format!(
+        "posed {} from {} strokes ({} matched to bones, {} set aside) in {:.1} ms\n",
         args.rig.display(),
         strokes.len(),
         matched,
@@ -180,16 +184,14 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<()> {
             .iter()
             .map(|&j| rig_file.rig.skeleton.joint(j).name.as_str())
             .collect();
-        println!(
-            "  stroke {i}: {}",
-            if names.is_empty() {
-                "(stray)".to_string()
-            } else {
-                names.join(" > ")
-            }
-        );
+        let names = if names.is_empty() {
+            "(stray)".to_string()
+        } else {
+            names.join(" > ")
+        };
+        summary.push_str(&format!("  stroke {i}: {names}\n"));
     }
-    Ok(())
+    Ok(summary)
 }
 
 /// The start pose and the result side by side, the strokes over both, each stroke in the

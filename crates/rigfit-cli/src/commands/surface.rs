@@ -61,6 +61,9 @@ pub struct SurfaceArgs {
     pub truth: Option<Vec<PathBuf>>,
     #[command(flatten)]
     pub picture: super::render::PictureArgs,
+    /// No progress bar (a take run by `rigfit batch`); not an option of the command line.
+    #[arg(skip)]
+    pub quiet: bool,
 }
 
 /// The reference: a mesh file, or the skinned meshes of a rig in its stored pose.
@@ -125,7 +128,8 @@ fn frame_files(dir: &Path) -> anyhow::Result<Vec<(usize, PathBuf)>> {
     Ok(out)
 }
 
-pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
+/// Tracks the reference through the frames and writes the outputs; returns the summary.
+pub fn run(args: &SurfaceArgs) -> anyhow::Result<String> {
     if let Some(picture) = &args.render {
         super::render::check_png_path(picture)?;
     }
@@ -209,7 +213,11 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
     let mut tracker =
         SurfaceTracker::new(&reference, &options).map_err(|e| named(&args.mesh, e))?;
     // A progress bar on stderr (indicatif hides it when stderr is not a terminal).
-    let progress = indicatif::ProgressBar::new(args.frames.len() as u64);
+    let progress = if args.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(args.frames.len() as u64)
+    };
     progress.set_style(
         indicatif::ProgressStyle::with_template("tracking {bar:30} {pos}/{len} frames {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
@@ -261,16 +269,15 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<()> {
             })?;
         }
     }
-    println!(
-        "tracked {} ({} vertices, {} patches) through {} frames in {:.1} ms per frame; wrote {}",
+    Ok(format!(
+        "tracked {} ({} vertices, {} patches) through {} frames in {:.1} ms per frame; wrote {}\n",
         args.mesh.display(),
         reference.vertices.len(),
         tracker.model.patch_count(),
         results.len(),
         total_seconds / results.len().max(1) as f64 * 1000.0,
         outdir.display()
-    );
-    Ok(())
+    ))
 }
 
 /// One tracked frame: its file, the fit and the seconds it took.

@@ -65,6 +65,10 @@ pub struct TrackArgs {
     pub truth: Option<PathBuf>,
     #[command(flatten)]
     pub picture: super::render::PictureArgs,
+    /// No progress bar and no summary on a partial failure (a take run by `rigfit batch`);
+    /// not an option of the command line.
+    #[arg(skip)]
+    pub quiet: bool,
 }
 
 /// Reads a track report as ground truth: per frame, joint name to position.
@@ -121,7 +125,10 @@ struct Tracked {
     seconds: f64,
 }
 
-pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
+/// Tracks the frames and writes the outputs; returns the summary to print. Frames tracked
+/// before a failing frame are written, their summary printed unless `quiet`, and the
+/// failure returned.
+pub fn run(args: &TrackArgs) -> anyhow::Result<String> {
     if let Some(picture) = &args.render {
         super::render::check_png_path(picture)?;
     }
@@ -183,7 +190,11 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
 
     let shown = rigfit_render::pick_frames(args.frames.len(), 8);
     let mut shown_clouds: Vec<(usize, Vec<Point3>)> = Vec::new();
-    let progress = indicatif::ProgressBar::new(args.frames.len() as u64);
+    let progress = if args.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(args.frames.len() as u64)
+    };
     progress.set_style(
         indicatif::ProgressStyle::with_template("tracking {bar:40} {pos}/{len} frames {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
@@ -222,6 +233,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
 
     // Frames tracked before a failure are written all the same; every output is made and
     // written to its temporary file before any is renamed into place.
+    let mut summary = String::new();
     if !tracked.is_empty() {
         let poses: Vec<Pose> = tracked.iter().map(|t| t.fit.pose.clone()).collect();
         let mut staged = Vec::new();
@@ -251,8 +263,8 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         }
         commit_all(staged)?;
         let total: f64 = tracked.iter().map(|t| t.seconds).sum();
-        println!(
-            "tracked {} of {} frames with {} in {:.1} ms per frame (mean {:.0} inliers)",
+        summary = format!(
+            "tracked {} of {} frames with {} in {:.1} ms per frame (mean {:.0} inliers)\n",
             tracked.len(),
             args.frames.len(),
             args.rig.display(),
@@ -260,13 +272,16 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
             tracked.iter().map(|t| t.fit.inliers as f64).sum::<f64>() / tracked.len() as f64
         );
     }
+    if failure.is_some() && !args.quiet {
+        print!("{summary}");
+    }
     match failure {
         Some(e) if tracked.is_empty() => Err(e),
         Some(e) => Err(e.context(format!(
             "stopped after {} tracked frame(s), which were written",
             tracked.len()
         ))),
-        None => Ok(()),
+        None => Ok(summary),
     }
 }
 

@@ -6,6 +6,7 @@
 //! 25% outliers. Tracking starts from the first frame's true pose.
 #![allow(dead_code)]
 
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use rigfit_core::Pose;
@@ -128,4 +129,45 @@ pub fn track(suite: &TrackSuite, options: &TrackOptions) -> TrackOutcome {
         out.inliers.push(fit.inliers);
     }
     out
+}
+
+/// Writes a suite's first `n` frames as PLY clouds and its first true pose as the start
+/// rig (`start.glb` / `start.bvh`). Returns the start rig and the frame files.
+pub fn write_sequence(
+    dir: &Path,
+    name: &'static str,
+    n: usize,
+) -> (PathBuf, Vec<PathBuf>, TrackSuite) {
+    // The full 60-frame motion (the scripted hand's speed depends on it), first n frames.
+    let mut suite = suite(name, FRAMES, &SequenceOptions::default());
+    suite.frames.truncate(n);
+    let source = match name {
+        "01_01" => "cmu/01_01.bvh",
+        "hand" => "webxr_hand/left.glb",
+        _ => "assimp/BCN_Epileptic.glb",
+    };
+    let rig_file = read_rig(&asset(source), &RigOptions::default()).expect("rig");
+    let start = dir.join(if source.ends_with(".bvh") {
+        "start.bvh"
+    } else {
+        "start.glb"
+    });
+    rig_file
+        .write_pose(&start, &suite.frames[0].truth, None)
+        .expect("start rig written");
+    let files = suite
+        .frames
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            let path = dir.join(format!("frame_{k:04}.ply"));
+            let cloud = rigfit_core::TriMesh {
+                vertices: f.points.clone(),
+                ..rigfit_core::TriMesh::default()
+            };
+            rigfit_formats::ply::write_ply(&path, &cloud).expect("frame written");
+            path
+        })
+        .collect();
+    (start, files, suite)
 }
