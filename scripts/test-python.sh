@@ -13,7 +13,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
 venv=$root/target/py-venv
-requirements="maturin>=1.9,<2 ziglang pytest numpy bpy==5.0.1"
+requirements="maturin>=1.9,<2 ziglang pytest numpy bpy==5.0.1 distributed==2026.8.0"
 
 # bpy 5.0.1 is built for CPython 3.11 only.
 python=""
@@ -60,7 +60,7 @@ wheel=$(ls target/wheels/rigfit-*-cp311-abi3-manylinux_2_28_x86_64.whl)
 pip install -q --disable-pip-version-check --force-reinstall --no-deps "$wheel"
 
 echo "== pytest (the rigfit package)"
-(cd python && timeout 600 python -m pytest -q tests)
+(cd python && RIGFIT_WHEEL="$root/$wheel" timeout 900 python -m pytest -q tests)
 
 echo "== Blender extension zip"
 scripts/build-blender-extension.sh "$wheel" target/rigfit_blender.zip

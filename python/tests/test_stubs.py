@@ -1,6 +1,7 @@
 """The type stubs and docstrings ship with the wheel and describe what the module has."""
 
 import ast
+import types
 from pathlib import Path
 
 import rigfit
@@ -25,7 +26,8 @@ def test_the_stubs_cover_every_public_name_and_member():
             }
         elif isinstance(node, ast.FunctionDef):
             stubbed[node.name] = set()
-    public = {n for n in dir(rigfit) if not n.startswith("_")}
+    # Submodules (rigfit.cluster, once imported) have stubs of their own: their source.
+    public = {n for n in dir(rigfit) if not n.startswith("_") and not isinstance(getattr(rigfit, n), types.ModuleType)}
     assert public - {"rigfit"} <= set(stubbed) | {"RigfitError"}, public - set(stubbed)
     for name, members in stubbed.items():
         obj = getattr(rigfit, name)

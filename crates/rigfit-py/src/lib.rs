@@ -4,6 +4,7 @@
 //! Every error is a `rigfit.RigfitError` (a `ValueError`) with one line of text.
 
 mod arrays;
+mod batch;
 mod pose;
 mod rig;
 mod skeleton;
@@ -36,5 +37,8 @@ fn _rigfit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pose::solve_pose, m)?)?;
     m.add_function(wrap_pyfunction!(pose::draw_strokes, m)?)?;
     m.add_function(wrap_pyfunction!(rig::load_rig, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::run_take, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::read_jobs, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::run_batch, m)?)?;
     Ok(())
 }

@@ -179,3 +179,28 @@ class Tracker:
         """Joint world positions (n, 3) in the current pose."""
     def surface_points(self) -> Float2D:
         """Model surface points (k, 3) in the current pose."""
+
+def run_take(
+    take: dict[str, object], base_dir: str | PathLike[str] | None = None
+) -> dict[str, object]:
+    """Runs one take (a dict as in a job file: ``name``, ``command`` = ``"pose"`` /
+    ``"track"`` / ``"surface"``, and the command's arguments by their long names) as
+    ``rigfit COMMAND`` would; relative paths start from ``base_dir`` (default: the current
+    folder). Returns ``{"name", "command", "status", "summary", "seconds", "attempts"}``;
+    raises ``RigfitError`` with the take's one line when it fails."""
+
+def read_jobs(path: str | PathLike[str]) -> tuple[list[dict[str, object]], str]:
+    """Reads and checks a job file; returns its takes (names filled in) and the folder
+    their relative paths start from."""
+
+def run_batch(
+    path: str | PathLike[str],
+    *,
+    workers: int = 1,
+    report: str | PathLike[str] | None = None,
+    progress: bool = False,
+) -> dict[str, object]:
+    """Runs every take of a job file on ``workers`` threads, as ``rigfit batch`` does: a
+    line on stderr per failed take, the others carrying on; returns the summary report
+    (``done``, ``failed``, ``takes``) and writes it to ``report`` if given. Raises
+    ``RigfitError`` only for a bad job file or report path."""
