@@ -53,11 +53,9 @@ if ldd "$bpy_so" | grep "not found"; then
   exit 2
 fi
 
-echo "== wheel (maturin, manylinux_2_28)"
-rm -rf target/wheels
-(cd crates/rigfit-py && maturin build --release --zig --compatibility manylinux_2_28 --out "$root/target/wheels" 2>&1 | tail -n 2)
+echo "== wheel (maturin, manylinux_2_28): the README's install command"
+scripts/install-python.sh cluster
 wheel=$(ls target/wheels/rigfit-*-cp311-abi3-manylinux_2_28_x86_64.whl)
-pip install -q --disable-pip-version-check --force-reinstall --no-deps "$wheel"
 
 echo "== pytest (the rigfit package)"
 (cd python && RIGFIT_WHEEL="$root/$wheel" timeout 900 python -m pytest -q tests)
