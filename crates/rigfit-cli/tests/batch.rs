@@ -200,20 +200,21 @@ fn a_batch_runs_every_take_reports_the_broken_ones_and_matches_each_take_run_alo
 }
 
 #[test]
-fn relative_paths_are_taken_from_the_job_file_folder() {
+fn relative_paths_are_taken_from_the_job_file_folder_and_output_folders_made() {
     let dir = tempfile::tempdir().expect("temp dir");
     let inputs = inputs(dir.path());
     let jobs = dir.path().join("jobs.json");
     std::fs::write(
         &jobs,
         json!({ "takes": [ {"command": "pose", "rig": "demo/humanoid.glb", "strokes": "demo/strokes.json",
-                            "output": "posed.bvh", "bones": ["LeftArm", "LeftForeArm"]} ] })
+                            "output": "new/folder/posed.bvh", "bones": ["LeftArm", "LeftForeArm"]} ] })
         .to_string(),
     )
     .expect("jobs");
     let o = rigfit(&["batch", s(&jobs)]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(dir.path().join("posed.bvh").is_file());
+    // The output's folder is made for it.
+    assert!(dir.path().join("new/folder/posed.bvh").is_file());
     assert!(stdout(&o).contains("1 takes from") && stdout(&o).contains("1 done, 0 failed"));
     let _ = inputs;
 }

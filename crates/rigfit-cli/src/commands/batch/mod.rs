@@ -125,6 +125,14 @@ fn execute(take: &Take) -> anyhow::Result<String> {
     let argv = take.command_line()?;
     let command = TakeCommand::try_parse_from(&argv)
         .map_err(|e| anyhow!("{}", super::argument_line(&e, &take.command)))?;
+    // A night's outputs go to folders that may not exist yet: make them (the commands
+    // alone ask for an existing folder).
+    for output in take.outputs() {
+        if let Some(folder) = output.parent().filter(|f| !f.as_os_str().is_empty()) {
+            std::fs::create_dir_all(folder)
+                .with_context(|| format!("{}: cannot create the folder", folder.display()))?;
+        }
+    }
     match command {
         TakeCommand::Pose(mut args) => {
             args.quiet = true;
