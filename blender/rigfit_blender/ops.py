@@ -35,11 +35,20 @@ def target_armature(context) -> bpy.types.Object | None:
     return obj if obj is not None and obj.type == "ARMATURE" else None
 
 
-def _require_armature(op, context):
-    arm = target_armature(context)
-    if arm is None:
-        op.report({"ERROR"}, "rigfit: no armature selected (select one with Select Armature)")
-    return arm
+NO_ARMATURE = "rigfit: no armature selected (select one with Select Armature)"
+
+
+class NeedsArmature:
+    """Mixin for the operators that work on the armature being posed: their `poll` fails when
+    there is none, so Blender greys them out (the reason in the tooltip) and refuses to run
+    them, and their `execute` / `invoke` can take `target_armature` as found."""
+
+    @classmethod
+    def poll(cls, context):
+        if getattr(context, "scene", None) is not None and target_armature(context) is not None:
+            return True
+        cls.poll_message_set(NO_ARMATURE)
+        return False
 
 
 def stroke_point(context, event, depth: Vector | None = None) -> Vector | None:
@@ -84,7 +93,7 @@ def armature_centre(arm: bpy.types.Object) -> Vector:
     return sum(heads, Vector()) / len(heads)
 
 
-class RIGFIT_OT_draw_stroke(bpy.types.Operator):
+class RIGFIT_OT_draw_stroke(NeedsArmature, bpy.types.Operator):
     """Draw a stroke: hold the left mouse button (or pen, or the VR trigger) and draw; the
     stroke lies in the view plane through the armature (in VR, where the controller points)"""
 
@@ -95,9 +104,7 @@ class RIGFIT_OT_draw_stroke(bpy.types.Operator):
     points: CollectionProperty(type=RIGFIT_PG_point, name="Trace", description="A recorded trace (world)")
 
     def execute(self, context):
-        arm = _require_armature(self, context)
-        if arm is None:
-            return {"CANCELLED"}
+        arm = target_armature(context)
         pts = [Vector(p.co) for p in self.points]
         if len(pts) < 2:
             self.report({"ERROR"}, "rigfit: a stroke needs at least 2 points")
@@ -109,9 +116,7 @@ class RIGFIT_OT_draw_stroke(bpy.types.Operator):
     def invoke(self, context, event):
         if len(self.points) > 0:
             return self.execute(context)
-        arm = _require_armature(self, context)
-        if arm is None:
-            return {"CANCELLED"}
+        arm = target_armature(context)
         self._arm = arm
         self._depth = armature_centre(arm)
         self._trace: list[Vector] = []
@@ -215,7 +220,7 @@ class RIGFIT_OT_select_armature(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class RIGFIT_OT_move_armature(bpy.types.Operator):
+class RIGFIT_OT_move_armature(NeedsArmature, bpy.types.Operator):
     """Move and rotate the selected armature: with the mouse (Blender's grab), in VR by
     holding the left trigger (the armature follows the controller), or by offset and angle"""
 
@@ -227,18 +232,14 @@ class RIGFIT_OT_move_armature(bpy.types.Operator):
     angle: FloatVectorProperty(name="Rotation", size=3, subtype="EULER", description="About the armature's origin")
 
     def execute(self, context):
-        arm = _require_armature(self, context)
-        if arm is None:
-            return {"CANCELLED"}
+        arm = target_armature(context)
         origin = arm.matrix_world.translation.copy()
         rotate = Matrix.Translation(origin) @ Euler(self.angle).to_matrix().to_4x4() @ Matrix.Translation(-origin)
         arm.matrix_world = Matrix.Translation(Vector(self.offset)) @ rotate @ arm.matrix_world
         return {"FINISHED"}
 
     def invoke(self, context, event):
-        arm = _require_armature(self, context)
-        if arm is None:
-            return {"CANCELLED"}
+        arm = target_armature(context)
         if event.type == "XR_ACTION":
             self._arm = arm
             self._start_object = arm.matrix_world.copy()
@@ -267,7 +268,7 @@ class RIGFIT_OT_move_armature(bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
 
-class RIGFIT_OT_solve(bpy.types.Operator):
+class RIGFIT_OT_solve(NeedsArmature, bpy.types.Operator):
     """Pose the selected armature so its bones follow the strokes (rigfit.solve_pose)"""
 
     bl_idname = "rigfit.solve"
@@ -277,9 +278,7 @@ class RIGFIT_OT_solve(bpy.types.Operator):
     def execute(self, context):
         import rigfit
 
-        arm = _require_armature(self, context)
-        if arm is None:
-            return {"CANCELLED"}
+        arm = target_armature(context)
         strokes = rig.stroke_points(arm)
         if not strokes:
             self.report({"ERROR"}, f"rigfit: no strokes drawn for '{arm.name}'")
@@ -301,7 +300,7 @@ class RIGFIT_OT_solve(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class RIGFIT_OT_reset_pose(bpy.types.Operator):
+class RIGFIT_OT_reset_pose(NeedsArmature, bpy.types.Operator):
     """Put the selected armature back in its rest pose"""
 
     bl_idname = "rigfit.reset_pose"
@@ -309,15 +308,13 @@ class RIGFIT_OT_reset_pose(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        arm = _require_armature(self, context)
-        if arm is None:
-            return {"CANCELLED"}
+        arm = target_armature(context)
         for pb in arm.pose.bones:
             pb.matrix_basis = Matrix.Identity(4)
         return {"FINISHED"}
 
 
-class RIGFIT_OT_delete_last_stroke(bpy.types.Operator):
+class RIGFIT_OT_delete_last_stroke(NeedsArmature, bpy.types.Operator):
     """Delete the last stroke drawn for the selected armature"""
 
     bl_idname = "rigfit.delete_last_stroke"
@@ -325,9 +322,7 @@ class RIGFIT_OT_delete_last_stroke(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        arm = _require_armature(self, context)
-        if arm is None:
-            return {"CANCELLED"}
+        arm = target_armature(context)
         obj = rig.strokes_object(arm)
         if obj is None or len(obj.data.splines) == 0:
             self.report({"WARNING"}, "rigfit: no stroke to delete")
@@ -336,7 +331,7 @@ class RIGFIT_OT_delete_last_stroke(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class RIGFIT_OT_delete_strokes(bpy.types.Operator):
+class RIGFIT_OT_delete_strokes(NeedsArmature, bpy.types.Operator):
     """Delete every stroke drawn for the selected armature"""
 
     bl_idname = "rigfit.delete_strokes"
@@ -344,9 +339,7 @@ class RIGFIT_OT_delete_strokes(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        arm = _require_armature(self, context)
-        if arm is None:
-            return {"CANCELLED"}
+        arm = target_armature(context)
         obj = rig.strokes_object(arm)
         if obj is not None:
             obj.data.splines.clear()
@@ -383,7 +376,7 @@ def has_keyframe(arm: bpy.types.Object, frame: float) -> bool:
     return False
 
 
-class RIGFIT_OT_insert_keyframe(bpy.types.Operator):
+class RIGFIT_OT_insert_keyframe(NeedsArmature, bpy.types.Operator):
     """Key the location, rotation and scale of every bone of the selected armature at the
     current frame"""
 
@@ -392,9 +385,7 @@ class RIGFIT_OT_insert_keyframe(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        arm = _require_armature(self, context)
-        if arm is None:
-            return {"CANCELLED"}
+        arm = target_armature(context)
         frame = context.scene.frame_current
         for pb in arm.pose.bones:
             for path in bone_channels(pb):

@@ -81,6 +81,44 @@ def test_the_extension_registers_operators_panel_and_handler(addon):
     assert addon.xr.xr_session_start_pre in bpy.app.handlers.xr_session_start_pre
 
 
+NEEDS_ARMATURE = [
+    "draw_stroke", "move_armature", "solve", "reset_pose", "delete_last_stroke", "delete_strokes", "insert_keyframe",
+]
+
+
+def test_operators_that_pose_an_armature_are_greyed_out_without_one(addon):
+    """Their poll fails, with the reason Blender shows in the tooltip, when no armature is
+    selected; it passes when one is active or chosen for rigfit. The others always run."""
+    scene = empty_scene()
+    for op in NEEDS_ARMATURE:
+        operator = getattr(bpy.ops.rigfit, op)
+        assert not operator.poll(), op
+        with pytest.raises(RuntimeError, match=r"poll\(\) rigfit: no armature selected \(select one with Select Armature\)"):
+            operator()
+    assert bpy.ops.rigfit.frame_step.poll() and bpy.ops.rigfit.play.poll()
+    assert bpy.ops.rigfit.select_armature.poll()
+    with pytest.raises(RuntimeError, match="the scene has no armature"):
+        bpy.ops.rigfit.select_armature()
+
+    # An armature in the scene that is neither active nor chosen: still none to pose.
+    arm = build_armature("Stick", [[((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))]])
+    bpy.context.view_layer.objects.active = None
+    assert all(not getattr(bpy.ops.rigfit, op).poll() for op in NEEDS_ARMATURE)
+    # Active, then chosen (and not active).
+    bpy.context.view_layer.objects.active = arm
+    assert all(getattr(bpy.ops.rigfit, op).poll() for op in NEEDS_ARMATURE)
+    assert bpy.ops.rigfit.select_armature(name=arm.name) == {"FINISHED"}
+    bpy.context.view_layer.objects.active = None
+    assert all(getattr(bpy.ops.rigfit, op).poll() for op in NEEDS_ARMATURE)
+    assert bpy.ops.rigfit.reset_pose() == {"FINISHED"}
+    assert bpy.ops.rigfit.delete_strokes() == {"FINISHED"}
+    assert bpy.ops.rigfit.delete_last_stroke() == {"CANCELLED"}
+    # A chosen armature taken out of the scene no longer counts.
+    scene.collection.objects.unlink(arm)
+    assert scene.rigfit.armature == arm
+    assert all(not getattr(bpy.ops.rigfit, op).poll() for op in NEEDS_ARMATURE)
+
+
 def test_the_armature_is_the_skeleton_rigfit_sees(addon):
     empty_scene()
     arm = import_character()
