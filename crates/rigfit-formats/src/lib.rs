@@ -9,6 +9,7 @@ pub mod error;
 pub mod files;
 pub mod gltf;
 pub mod json;
+pub mod mesh_file;
 pub mod obj;
 pub mod ply;
 pub mod report;

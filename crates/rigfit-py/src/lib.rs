@@ -1,13 +1,15 @@
 //! The `rigfit` Python package: a thin shell over rigfit-core (and rigfit-formats for
-//! reading rig files). Arrays go in and come out as numpy arrays of float64; joints are
+//! reading and writing rigs, meshes and point clouds). Arrays go in and come out as numpy arrays of float64; joints are
 //! given in the caller's order (parents may come after children) and returned in it.
 //! Every error is a `rigfit.RigfitError` (a `ValueError`) with one line of text.
 
 mod arrays;
 mod batch;
+mod mesh;
 mod pose;
 mod rig;
 mod skeleton;
+mod surface;
 mod track;
 
 use pyo3::prelude::*;
@@ -24,7 +26,8 @@ pub(crate) fn error(message: impl Into<String>) -> PyErr {
     RigfitError::new_err(message.into())
 }
 
-/// Pose rigged characters from 3D strokes and track articulated bodies in point clouds.
+/// Pose rigged characters from 3D strokes, track articulated bodies and deformable surfaces
+/// in point clouds.
 #[pymodule]
 fn _rigfit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
@@ -40,5 +43,10 @@ fn _rigfit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::run_take, m)?)?;
     m.add_function(wrap_pyfunction!(batch::read_jobs, m)?)?;
     m.add_function(wrap_pyfunction!(batch::run_batch, m)?)?;
+    m.add_class::<surface::PySurfaceTracker>()?;
+    m.add_class::<surface::PySurfaceFit>()?;
+    m.add_function(wrap_pyfunction!(mesh::load_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh::load_cloud, m)?)?;
+    m.add_function(wrap_pyfunction!(mesh::save_mesh, m)?)?;
     Ok(())
 }

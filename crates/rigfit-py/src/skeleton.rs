@@ -44,19 +44,45 @@ impl PySkeleton {
         rotations: Option<&Bound<'_, PyAny>>,
         translations: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Pose> {
-        let mut pose = self.skeleton.rest_pose();
+        self.pose_from(self.skeleton.rest_pose(), rotations, translations)
+    }
+
+    /// `start` with the local rotations `(n, 4)` and translations `(n, 3)` given (caller's
+    /// order) put in.
+    pub fn pose_from(
+        &self,
+        start: Pose,
+        rotations: Option<&Bound<'_, PyAny>>,
+        translations: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Pose> {
         let n = self.len();
+        let r = rotations
+            .map(|r| rows::<4>(r, "rotations", Some(n)))
+            .transpose()?;
+        let t = translations
+            .map(|t| rows::<3>(t, "translations", Some(n)))
+            .transpose()?;
+        self.set_pose(start, r.as_deref(), t.as_deref(), "rotations")
+    }
+
+    /// `pose` with rows (caller's order, already shape-checked) put in; `label` names the
+    /// rotations in the error of a zero quaternion.
+    pub fn set_pose(
+        &self,
+        mut pose: Pose,
+        rotations: Option<&[[f64; 4]]>,
+        translations: Option<&[[f64; 3]]>,
+        label: &str,
+    ) -> PyResult<Pose> {
         if let Some(r) = rotations {
-            let r = rows::<4>(r, "rotations", Some(n))?;
             for (i, q) in r.iter().enumerate() {
                 if q.iter().map(|v| v * v).sum::<f64>() < 1e-12 {
-                    return Err(error(format!("rotations[{i}]: a zero quaternion")));
+                    return Err(error(format!("{label}[{i}]: a zero quaternion")));
                 }
                 pose.local[self.order[i]].rotation = quat_from_xyzw(*q);
             }
         }
         if let Some(t) = translations {
-            let t = rows::<3>(t, "translations", Some(n))?;
             for (i, v) in t.iter().enumerate() {
                 pose.local[self.order[i]].translation = Vector3::from(*v);
             }

@@ -75,7 +75,7 @@ impl PyTracker {
         options.max_motion = max_motion;
         let (rig, skeleton) = if let Ok(rig) = model.cast::<PyRig>() {
             let rig = rig.get();
-            let mut r = rig.rig.clone();
+            let mut r = rig.rig().clone();
             let skeleton = rig.skeleton.get().clone();
             if rotations.is_some() || translations.is_some() {
                 r.pose = skeleton.pose(rotations, translations)?;

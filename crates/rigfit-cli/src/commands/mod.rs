@@ -19,17 +19,7 @@ use rigfit_formats::error::extension;
 /// Reads a mesh or point cloud by extension (.ply, .obj): the frames of `track` and
 /// `surface`, the meshes `render` draws.
 pub fn read_mesh(path: &Path) -> anyhow::Result<TriMesh> {
-    Ok(match extension(path).as_str() {
-        "ply" => rigfit_formats::ply::read_ply(path)?,
-        "obj" => rigfit_formats::obj::read_obj(path)?,
-        _ => {
-            return Err(rigfit_formats::FormatError::Unsupported {
-                path: path.to_path_buf(),
-                expected: "a mesh or point cloud: .ply or .obj".into(),
-            }
-            .into());
-        }
-    })
+    Ok(rigfit_formats::mesh_file::read_mesh(path)?)
 }
 
 /// The files a rig was read from: the rig and the external buffers of a glTF.

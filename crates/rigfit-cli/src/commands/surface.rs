@@ -6,12 +6,9 @@ use std::time::Instant;
 
 use anyhow::{Context, anyhow};
 use rigfit_core::TriMesh;
-use rigfit_core::surface::cases::skinned_surface;
 use rigfit_core::surface::{Observations, SurfaceError, SurfaceOptions, SurfaceTracker};
-use rigfit_formats::error::extension;
 use rigfit_formats::files::{commit_all, stage};
 use rigfit_formats::ply::ply_bytes;
-use rigfit_formats::rig_file::{RigOptions, read_rig};
 use serde_json::json;
 
 #[derive(Debug, clap::Args)]
@@ -68,30 +65,12 @@ pub struct SurfaceArgs {
 
 /// The reference: a mesh file, or the skinned meshes of a rig in its stored pose.
 fn read_reference(path: &Path) -> anyhow::Result<TriMesh> {
-    match extension(path).as_str() {
-        "glb" | "gltf" => {
-            let file = read_rig(path, &RigOptions::default())?;
-            if file.rig.meshes.iter().all(|m| m.positions.is_empty()) {
-                return Err(anyhow!("{}: the skin has no mesh", path.display()));
-            }
-            Ok(skinned_surface(&file.rig, &file.rig.pose))
-        }
-        "ply" | "obj" => super::read_mesh(path),
-        _ => Err(rigfit_formats::FormatError::Unsupported {
-            path: path.to_path_buf(),
-            expected: "a reference mesh: .ply, .obj, .glb or .gltf".into(),
-        }
-        .into()),
-    }
+    Ok(rigfit_formats::mesh_file::read_surface(path)?)
 }
 
 fn named(path: &Path, e: SurfaceError) -> anyhow::Error {
     anyhow!("{}: {e}", path.display())
 }
-
-/// The most EM iterations per frame `--iterations` takes, and the coarsest `--coarse`.
-const MAX_ITERATIONS: usize = 1000;
-const MAX_COARSE: usize = 1024;
 
 /// The name of output frame `i`.
 fn frame_name(i: usize) -> String {
@@ -128,23 +107,29 @@ fn frame_files(dir: &Path) -> anyhow::Result<Vec<(usize, PathBuf)>> {
     Ok(out)
 }
 
+/// The tracker's options from the flags, checked against the core's bounds
+/// ([`SurfaceOptions::check`]); an error names the flag.
+fn options(args: &SurfaceArgs) -> anyhow::Result<SurfaceOptions> {
+    let mut options = SurfaceOptions::default();
+    options.patches.radius = args.patch_radius;
+    options.data.outlier_ratio = args.outliers;
+    options.rigidity = args.rigidity;
+    options.max_iterations = args.iterations;
+    options.merge_cell = args.merge;
+    options.coarse_stride = args.coarse;
+    options
+        .check()
+        .map_err(|e| anyhow!("--{}: {}", e.option.flag(), e.problem))?;
+    Ok(options)
+}
+
 /// Tracks the reference through the frames and writes the outputs; returns the summary.
 pub fn run(args: &SurfaceArgs) -> anyhow::Result<String> {
     if let Some(picture) = &args.render {
         super::render::check_png_path(picture)?;
     }
-    if !(1..=MAX_ITERATIONS).contains(&args.iterations) {
-        return Err(anyhow!(
-            "--iterations: expected 1 to {MAX_ITERATIONS} EM iterations per frame, got {}",
-            args.iterations
-        ));
-    }
-    if !(1..=MAX_COARSE).contains(&args.coarse) {
-        return Err(anyhow!(
-            "--coarse: expected a stride from 1 to {MAX_COARSE}, got {}",
-            args.coarse
-        ));
-    }
+    // The bounds are the core's (shared with the Python package), checked before any file.
+    let options = options(args)?;
     // OUTDIR: a folder (made when missing). Its frame_NNNNN.ply files are replaced; those
     // of an earlier run numbered past this run's frames are removed once this run's are all
     // in place. An input among them (or among the new names) is refused.
@@ -186,30 +171,6 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<String> {
     }
     super::check_files(&inputs, &outputs)?;
     let reference = read_reference(&args.mesh)?;
-    let mut options = SurfaceOptions::default();
-    options.patches.radius = args.patch_radius;
-    options.data.outlier_ratio = args.outliers;
-    options.rigidity = args.rigidity;
-    options.max_iterations = args.iterations;
-    options.merge_cell = args.merge;
-    options.coarse_stride = args.coarse;
-    if !(1e-4..=10.0).contains(&options.patches.radius) {
-        return Err(anyhow!(
-            "--patch-radius: expected a fraction of the diagonal from 0.0001 to 10, got {}",
-            options.patches.radius
-        ));
-    }
-    if !(0.0..1.0).contains(&options.data.outlier_ratio) {
-        return Err(anyhow!("--outliers: expected a fraction in [0, 1)"));
-    }
-    if !(options.merge_cell >= 0.0 && options.merge_cell.is_finite()) {
-        return Err(anyhow!(
-            "--merge: expected a non-negative number of point spacings"
-        ));
-    }
-    if !(options.rigidity >= 0.0 && options.rigidity.is_finite()) {
-        return Err(anyhow!("--rigidity: expected a non-negative number"));
-    }
     let mut tracker =
         SurfaceTracker::new(&reference, &options).map_err(|e| named(&args.mesh, e))?;
     // A progress bar on stderr (indicatif hides it when stderr is not a terminal).

@@ -8,6 +8,7 @@
 //! [`cases`] draws ground-truth scan sequences from skinned characters (tests, benches) and
 //! a procedural torus for speed measurements without assets.
 
+pub mod bounds;
 pub mod cases;
 pub mod estep;
 pub mod model;
@@ -16,6 +17,7 @@ pub mod patches;
 pub mod point_tree;
 pub mod solve;
 
+pub use bounds::{OptionError, SurfaceOption};
 pub use estep::{
     DataTermOptions, EStepCache, Observations, VertexTargets, e_step, e_step_cached,
     e_step_predicted, estimate_normals,

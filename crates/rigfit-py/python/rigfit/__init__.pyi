@@ -1,4 +1,5 @@
-"""rigfit: pose rigged characters from 3D strokes and track articulated bodies.
+"""rigfit: pose rigged characters from 3D strokes, track articulated bodies and deformable
+surfaces through point clouds, and read and write rigs, meshes and point clouds.
 
 Arrays go in as anything numpy can read as float64 and come out as numpy arrays.
 Joints keep the order they were given in. Quaternions are ``[x, y, z, w]``. rigfit's
@@ -18,6 +19,7 @@ __version__: str
 ArrayLike = npt.ArrayLike
 Float2D = npt.NDArray[np.float64]
 Int1D = npt.NDArray[np.int64]
+Int2D = npt.NDArray[np.int64]
 
 class RigfitError(ValueError):
     """Bad input, or a problem rigfit cannot solve; the message says which and why."""
@@ -139,6 +141,31 @@ class Rig:
     def frame_time(self, animation: int = 0) -> float | None: ...
     def sample(self, time: float, animation: int = 0) -> tuple[Float2D, Float2D]:
         """(rotations, translations) of an animation at ``time`` seconds."""
+    def mesh(
+        self, rotations: ArrayLike | None = None, translations: ArrayLike | None = None
+    ) -> tuple[Float2D, Int2D]:
+        """The skinned mesh ``(vertices (n, 3), faces (k, 3))`` in the stored pose with the
+        given local rotations (n, 4) / translations (n, 3) put in."""
+    def save(
+        self,
+        path: str | PathLike[str],
+        rotations: ArrayLike,
+        translations: ArrayLike | None = None,
+    ) -> None:
+        """Writes the rig in one pose (``.glb`` / ``.gltf`` / ``.bvh``), as ``rigfit pose -o``
+        does: the stored pose with the local rotations (n, 4) (and translations (n, 3))
+        put in. Written atomically; never over a file the rig was read from."""
+    def save_animation(
+        self,
+        path: str | PathLike[str],
+        rotations: ArrayLike,
+        translations: ArrayLike | None = None,
+        fps: float = 30.0,
+    ) -> None:
+        """Writes the rig animated through poses, as ``rigfit track -o`` does:
+        ``rotations`` (frames, n, 4), ``translations`` (frames, n, 3) or None (the stored
+        pose's), one frame every ``1 / fps`` seconds (a glTF's ``rigfit`` animation, or the
+        BVH's frames). Written atomically."""
 
 def load_rig(
     path: str | PathLike[str],
@@ -204,3 +231,83 @@ def run_batch(
     line on stderr per failed take, the others carrying on; returns the summary report
     (``done``, ``failed``, ``takes``) and writes it to ``report`` if given. Raises
     ``RigfitError`` only for a bad job file or report path."""
+
+class SurfaceFit:
+    """What tracking one frame of a surface found."""
+
+    vertices: Float2D
+    """The reference's vertices (n, 3) moved onto the frame, vertex for vertex."""
+    inliers: int
+    """How many of the frame's points were taken as inliers."""
+    rms: float
+    """Root mean square distance of the points to their vertices (posterior-weighted)."""
+    iterations: int
+    """EM iterations run."""
+    sigma: float
+    """The final kernel width, in the reference's units."""
+    seconds: float
+    """Wall time of the frame's fit."""
+
+class SurfaceTracker:
+    """Deformable surface tracking (Cagniart et al. 2010; ``rigfit surface``): a reference
+    mesh, cut into patches that move rigidly and are held together by a rigidity energy,
+    fitted by EM to each frame's points in turn, each frame starting from the previous one."""
+
+    def __init__(
+        self,
+        vertices: ArrayLike,
+        faces: ArrayLike,
+        *,
+        patch_radius: float = 0.06,
+        outliers: float = 0.15,
+        rigidity: float = 4.0,
+        iterations: int = 12,
+        merge: float = 0.0,
+        coarse: int = 4,
+    ) -> None:
+        """The reference: ``vertices`` (n, 3), ``faces`` (k, 3) vertex indices (required:
+        they give the patches). The options, defaults and bounds are ``rigfit surface``'s:
+        ``patch_radius`` (a fraction of the reference's bounding-box diagonal, 0.0001 to
+        10), ``outliers`` (expected outlier fraction, [0, 1)), ``rigidity`` (>= 0),
+        ``iterations`` (EM iterations per frame at most, 1 to 1000), ``merge`` (merge each
+        frame's points by cubes of this many point spacings; 0: off), ``coarse`` (the first
+        two iterations use one point in this many, 1 to 1024)."""
+    def track(
+        self,
+        points: ArrayLike,
+        normals: ArrayLike | None = None,
+        faces: ArrayLike | None = None,
+    ) -> SurfaceFit:
+        """Aligns the reference to one frame: ``points`` (m, 3), with ``normals`` (m, 3) and
+        ``faces`` (k, 3) when the frame has them (otherwise normals come from the faces, or
+        are estimated from the points, as ``rigfit surface`` reads a frame file)."""
+    @property
+    def vertices(self) -> Float2D:
+        """The reference's vertices (n, 3) as tracked so far."""
+    @property
+    def faces(self) -> Int2D:
+        """The reference's faces (k, 3)."""
+    @property
+    def patch_count(self) -> int:
+        """How many patches the reference was cut into."""
+    @property
+    def options(self) -> dict[str, float | int]:
+        """The options in force, by keyword."""
+
+def load_mesh(path: str | PathLike[str]) -> tuple[Float2D, Int2D]:
+    """Reads ``(vertices (n, 3), faces (k, 3))`` from a ``.ply`` / ``.obj`` mesh, or the
+    skinned meshes of a ``.glb`` / ``.gltf`` rig in its stored pose (``rigfit surface``'s
+    reference). A point cloud has faces of shape (0, 3)."""
+
+def load_cloud(path: str | PathLike[str]) -> tuple[Float2D, Float2D | None]:
+    """Reads ``(points (n, 3), normals (n, 3) or None)`` from a ``.ply`` / ``.obj`` file
+    (``rigfit surface``'s frames)."""
+
+def save_mesh(
+    path: str | PathLike[str],
+    vertices: ArrayLike,
+    faces: ArrayLike | None = None,
+    normals: ArrayLike | None = None,
+) -> None:
+    """Writes a mesh or point cloud as ``.ply`` (binary, 32-bit float coordinates, as
+    ``rigfit surface`` writes its frames) or ``.obj`` (full precision), atomically."""
