@@ -95,11 +95,16 @@ def write_jobs(path: Path, takes: list[dict]) -> Path:
 
 
 def untimed(value):
-    """A report without its timings, workers and summaries (they differ run to run)."""
+    """A report without its timings, workers and summaries (they differ run to run), its
+    numbers to 12 significant digits: the surface tracker's rms and sigma are sums taken in
+    parallel, whose last bits depend on how the threads split the work (its meshes do
+    not)."""
     if isinstance(value, dict):
         return {k: untimed(v) for k, v in value.items() if k not in ("seconds", "summary", "worker", "workers", "jobs")}
     if isinstance(value, list):
         return [untimed(v) for v in value]
+    if isinstance(value, float):
+        return float(f"{value:.12g}")
     return value
 
 
