@@ -95,19 +95,32 @@ fn read_component(bytes: &[u8], component_type: u64, normalized: bool) -> f64 {
     }
 }
 
-/// Reads `count` elements of `components` values each from a buffer view.
+/// How an accessor's elements are stored: values per element, their component type,
+/// whether integers are normalised, and the columns of a matrix type.
+#[derive(Debug, Clone, Copy)]
+struct ElementLayout {
+    components: usize,
+    component_type: u64,
+    normalized: bool,
+    matrix_columns: Option<usize>,
+}
+
+/// Reads `count` elements laid out as `layout` from a buffer view.
 fn read_view(
     json: &Value,
     buffers: &[Vec<u8>],
     view_index: usize,
     byte_offset: usize,
     count: usize,
-    components: usize,
-    component_type: u64,
-    normalized: bool,
+    layout: ElementLayout,
     path: &str,
-    matrix_columns: Option<usize>,
 ) -> Result<Vec<f64>, ParseError> {
+    let ElementLayout {
+        components,
+        component_type,
+        normalized,
+        matrix_columns,
+    } = layout;
     let view_path = format!("bufferViews[{view_index}]");
     let view = element(json, "bufferViews", view_index, path)?;
     let buffer_index = required_index(view, "buffer", &view_path)?;
@@ -222,19 +235,14 @@ pub(crate) fn read_accessor(
         "MAT4" => Some(4),
         _ => None,
     };
+    let layout = ElementLayout {
+        components,
+        component_type,
+        normalized,
+        matrix_columns,
+    };
     let mut values = match index_field(acc, "bufferView", &path)? {
-        Some(view) => read_view(
-            json,
-            buffers,
-            view,
-            byte_offset,
-            count,
-            components,
-            component_type,
-            normalized,
-            &path,
-            matrix_columns,
-        )?,
+        Some(view) => read_view(json, buffers, view, byte_offset, count, layout, &path)?,
         None => {
             if count * components > MAX_VIEWLESS_COMPONENTS {
                 return Err(ParseError::new(
@@ -270,11 +278,13 @@ pub(crate) fn read_accessor(
             required_index(idx, "bufferView", &sp)?,
             index_field(idx, "byteOffset", &sp)?.unwrap_or(0),
             n,
-            1,
-            idx_type,
-            false,
+            ElementLayout {
+                components: 1,
+                component_type: idx_type,
+                normalized: false,
+                matrix_columns: None,
+            },
             &format!("{sp}.indices"),
-            None,
         )?;
         let replacement = read_view(
             json,
@@ -282,11 +292,8 @@ pub(crate) fn read_accessor(
             required_index(val, "bufferView", &sp)?,
             index_field(val, "byteOffset", &sp)?.unwrap_or(0),
             n,
-            components,
-            component_type,
-            normalized,
+            layout,
             &format!("{sp}.values"),
-            matrix_columns,
         )?;
         for (k, &i) in indices.iter().enumerate() {
             let i = i as usize;
