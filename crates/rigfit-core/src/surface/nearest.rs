@@ -2,10 +2,9 @@
 //! over single-precision points, rebuilt whenever the points move (a build costs about as
 //! much as a few hundred queries), and an unordered, fixed-capacity list of the nearest found.
 //!
-//! A general-purpose tree (kiddo) spent about 7,500 instructions on one 12-nearest query
-//! here; this one, specialised to that query (leaves stored by coordinate with their bounding
-//! boxes, bounded by the caller's radius), about 2,200 on the same tracking run
-//! (BENCHMARKS.md).
+//! It is specialised to that query (leaves stored by coordinate with their bounding boxes,
+//! bounded by the caller's radius), which a general-purpose tree (kiddo) answered at several
+//! times the cost (the figures are in BENCHMARKS.md).
 
 /// Most neighbours a query keeps.
 pub const MAX_NEAREST: usize = 64;
@@ -128,9 +127,9 @@ impl NearestFew {
 }
 
 /// Points per leaf. Leaves are full (but the last), padded with points at infinity, so that
-/// a leaf's distances are one fixed-length loop the compiler vectorises. 32 (the width of the
-/// leaf's bit mask) tracks about 7% faster than 16 and as fast as 24: fewer nodes to descend
-/// and to build, for distances that cost little more (BENCHMARKS.md).
+/// a leaf's distances are one fixed-length loop the compiler vectorises. 32 is the width of
+/// the leaf's bit mask and measured best (BENCHMARKS.md): fewer nodes to descend and to
+/// build, for distances that cost little more.
 const LEAF: usize = 32;
 const _: () = assert!(LEAF <= 32, "a leaf's mask is a u32");
 
