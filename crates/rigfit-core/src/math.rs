@@ -128,6 +128,12 @@ pub fn translation_part(m: &Matrix4) -> Vector3 {
     Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)])
 }
 
+/// `[v]x`, the cross-product matrix of `v`: the matrix of `u -> v x u`.
+#[inline]
+pub fn skew(v: &Vector3) -> Matrix3 {
+    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
+}
+
 /// The rotation `exp([w]x)` of a rotation vector `w` (axis times angle).
 #[inline]
 pub fn exp_rotation(w: &Vector3) -> Quat {
@@ -163,5 +169,13 @@ mod tests {
         assert_relative_eq!(back.translation, trs.translation, epsilon = 1e-12);
         assert_relative_eq!(back.scale, trs.scale, epsilon = 1e-12);
         assert!(back.rotation.angle_to(&trs.rotation) < 1e-9);
+    }
+
+    #[test]
+    fn skew_is_the_cross_product() {
+        let v = Vector3::new(0.3, -1.2, 2.5);
+        let u = Vector3::new(-0.7, 0.4, 1.1);
+        assert_eq!(skew(&v) * u, v.cross(&u));
+        assert_eq!(skew(&v).transpose(), -skew(&v));
     }
 }

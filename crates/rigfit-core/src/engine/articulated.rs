@@ -14,12 +14,7 @@ use nalgebra::{DMatrix, Matrix6, Matrix6x3, Vector6};
 use crate::engine::normal_equations::NormalSink;
 use crate::engine::subtree_moments::{Axes, JointParams};
 use crate::kinematics::{DofLayout, ForwardKinematics};
-use crate::math::{Matrix3, Vector3};
-
-/// `[v]x`, the matrix of `u -> v x u`.
-fn skew(v: &Vector3) -> Matrix3 {
-    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
-}
+use crate::math::{Matrix3, Vector3, skew};
 
 /// The motion subspace of some parameters: `count` (1 or 3) from `offset`, moving the
 /// points by the spatial velocity `s theta` (unused columns zero).

@@ -20,7 +20,7 @@ use rayon::prelude::*;
 
 use super::estep::VertexTargets;
 use super::model::{PatchModel, PatchPose};
-use crate::math::{Matrix3, Point3, Vector3, exp_rotation};
+use crate::math::{Matrix3, Point3, Vector3, exp_rotation, skew};
 
 /// A 6x6 block, row-major.
 type Block = [f64; 36];
@@ -385,12 +385,6 @@ fn fill_reducing_order(
     )
     .map_err(|_| SolveError::Factorisation)?;
     Ok((forward, inverse))
-}
-
-/// `[q]x`, the cross-product matrix.
-#[inline]
-fn skew(q: &Vector3) -> Matrix3 {
-    Matrix3::new(0.0, -q.z, q.y, q.z, 0.0, -q.x, -q.y, q.x, 0.0)
 }
 
 /// Weighted sums over vertices of their rest-frame offsets from two patch centres,

@@ -1,0 +1,287 @@
+//! Tracking one frame: the start pose predicted from the last frame's motion, then EM
+//! (eq. 17) with `sigma` annealed from `sigma_0` to the noise level, each M-step pulling
+//! the model points toward their targets (eq. 20).
+
+use super::m_step::Pull;
+use super::{FrameFit, TextureSource, TrackError, Tracker};
+use crate::engine::em::{candidate_radius, em_step, em_step_with};
+use crate::engine::point_grid::voxel_subsample;
+use crate::kinematics::ForwardKinematics;
+use crate::math::{Point3, Quat};
+use crate::skeleton::Pose;
+
+/// A point standing for a voxel's points.
+#[derive(Clone, Copy, Debug)]
+struct Representative {
+    /// The point's index (texture or data).
+    index: usize,
+    /// How many points it stands for.
+    count: u32,
+}
+
+impl Representative {
+    /// A point standing for itself alone.
+    fn single(index: usize) -> Self {
+        Self { index, count: 1 }
+    }
+}
+
+/// [`voxel_subsample`]'s representatives of `points`, their indices mapped by `index`.
+fn voxel_representatives(
+    points: &[Point3],
+    voxel: f64,
+    index: impl Fn(usize) -> usize,
+) -> Vec<Representative> {
+    voxel_subsample(points, voxel)
+        .into_iter()
+        .map(|(k, count)| Representative {
+            index: index(k),
+            count,
+        })
+        .collect()
+}
+
+/// EM at the noise level stops when no joint moved more than this (fraction of height).
+const CONVERGED_MOTION: f64 = 1e-3;
+
+/// A datum is an inlier when its posterior of belonging to the model (eq. 17 summed over
+/// the model points) is at least this: the model's kernel sum there is at least `c / 9`
+/// (about one texture point within 1.3 sigma). Texture points are sparse next to sigma, so
+/// one half would call most of the surface's data outliers.
+const INLIER_POSTERIOR: f64 = 0.1;
+
+/// Coarse-to-fine: above the noise level, points are merged into cubes this many `sigma`
+/// wide (a representative weighted by its count), so a Gaussian of width `sigma` still
+/// sees a few of them, and the work per level shrinks as `sigma` grows.
+const VOXEL_SIGMAS: f64 = 1.0;
+
+/// A texture point with at least this EM weight at the noise level counts as seen.
+const SEEN_WEIGHT: f64 = 1e-3;
+
+impl Tracker {
+    /// Aligns the model to one frame's points, starting from the previous frame's pose.
+    pub fn track(&mut self, data: &[Point3]) -> Result<FrameFit, TrackError> {
+        if data.is_empty() {
+            return Err(TrackError::EmptyCloud);
+        }
+        if let Some(index) = data.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+            return Err(TrackError::NonFinite { index });
+        }
+        if let Some(index) = crate::math::first_out_of_range(data) {
+            return Err(TrackError::OutOfRange { index });
+        }
+        let h = self.model.height;
+        let before = self.pose.clone();
+        if self.options.prediction > 0.0
+            && let Some(previous) = &self.previous
+        {
+            self.pose = extrapolate(previous, &self.pose, self.options.prediction);
+        }
+        let start = self.pose.clone();
+        let sigma0 = self.options.max_motion * h;
+        let sigma_min = (self.options.noise * h).min(sigma0);
+        let steps = self.options.anneal_steps.max(1);
+        let kappa = (sigma_min / sigma0).powf(1.0 / steps as f64);
+        let mut iterations = 0;
+        let mut fk = ForwardKinematics::new(&self.model.skeleton, &self.pose);
+        let all: Vec<usize> = (0..self.texture.len()).collect();
+        if self.options.visible_only && self.seen.len() != self.texture.len() {
+            // No view yet: the texture points with data near them from the start pose.
+            self.update_seen(data, &fk, 3.0 * sigma_min);
+        }
+        let seen: Vec<usize> = if self.options.visible_only {
+            all.iter().copied().filter(|&i| self.seen[i]).collect()
+        } else {
+            all.clone()
+        };
+        let mut world: Vec<Point3> = Vec::new();
+        let (mut finds, mut timing) = (0, [0.0; 3]);
+        for level in 0..=steps {
+            let sigma = sigma0 * kappa.powi(level as i32);
+            let last = level == steps;
+            let active = if last || seen.len() < all.len() / 10 {
+                &all
+            } else {
+                &seen
+            };
+            let voxel = VOXEL_SIGMAS * sigma;
+            let coarse = self.options.coarse_to_fine && !last && voxel > 1.5 * self.spacing;
+            // Representatives at this level: of texture points and of data points.
+            let (model_reps, data_reps): (Vec<Representative>, Vec<Representative>) = if coarse {
+                world.clear();
+                world.extend(active.iter().map(|&i| self.texture[i].world(&fk)));
+                let reps = voxel_representatives(&world, voxel, |k| active[k]);
+                (reps, voxel_representatives(data, voxel, |j| j))
+            } else {
+                (
+                    active.iter().map(|&i| Representative::single(i)).collect(),
+                    Vec::new(),
+                )
+            };
+            let model_weight: Option<Vec<f64>> =
+                coarse.then(|| model_reps.iter().map(|r| r.count as f64).collect());
+            let points: Vec<Point3> = data_reps.iter().map(|r| data[r.index]).collect();
+            let data_weight: Option<Vec<f64>> =
+                coarse.then(|| data_reps.iter().map(|r| r.count as f64).collect());
+            let rounds = if last {
+                self.options.final_em_iterations
+            } else {
+                self.options.em_iterations
+            };
+            let level_data = if coarse { &points[..] } else { data };
+            // Neighbours found once per level, with a margin for the motion within it.
+            let margin = 0.5 * sigma;
+            let mut found_at: Option<Vec<Point3>> = None;
+            for _ in 0..rounds {
+                iterations += 1;
+                world.clear();
+                world.extend(model_reps.iter().map(|r| self.texture[r.index].world(&fk)));
+                let stale = found_at.as_ref().is_none_or(|at| {
+                    at.iter()
+                        .zip(&world)
+                        .any(|(a, b)| (a - b).norm_squared() > margin * margin)
+                });
+                let t0 = std::time::Instant::now();
+                if stale {
+                    self.candidates.find(
+                        level_data,
+                        &world,
+                        candidate_radius(sigma, margin),
+                        &mut self.grid,
+                    );
+                    found_at = Some(world.clone());
+                    finds += 1;
+                    tracing::trace!(
+                        "level {level} sigma {:.4}: {} data, {} model, {} candidates",
+                        sigma / h,
+                        level_data.len(),
+                        world.len(),
+                        self.candidates.len()
+                    );
+                }
+                let t1 = std::time::Instant::now();
+                em_step_with(
+                    level_data,
+                    data_weight.as_deref(),
+                    &world,
+                    model_weight.as_deref(),
+                    sigma,
+                    self.options.outlier_constant,
+                    &self.candidates,
+                    &mut self.em,
+                );
+                // Eq. (20): each model point pulled to G_i with weight lambda_i.
+                let pulls: Vec<Pull> = model_reps
+                    .iter()
+                    .enumerate()
+                    .filter(|(k, _)| self.em.lambda[*k] > 1e-9)
+                    .map(|(k, r)| {
+                        let point = self.texture[r.index];
+                        let mut target = self.em.target[k];
+                        if self.options.point_to_plane && self.model.surface_normals.is_some() {
+                            // Only the normal part of the pull: the point-to-plane
+                            // gradient, free of the tangential bias of blurred centroids.
+                            let x = world[k];
+                            let n = point.world_normal(&fk);
+                            target = x + n * n.dot(&(target - x));
+                        }
+                        Pull {
+                            point,
+                            target,
+                            weight: self.em.lambda[k],
+                        }
+                    })
+                    .collect();
+                let t2 = std::time::Instant::now();
+                let before = fk.clone();
+                self.fit(
+                    &pulls,
+                    &start,
+                    self.options.gauss_newton_steps,
+                    last,
+                    self.options.over_relaxation,
+                );
+                fk.update(&self.model.skeleton, &self.pose);
+                let t3 = std::time::Instant::now();
+                timing[0] += (t1 - t0).as_secs_f64();
+                timing[1] += (t2 - t1).as_secs_f64();
+                timing[2] += (t3 - t2).as_secs_f64();
+                // At the noise level, EM runs until the joints stop moving.
+                let moved = (0..fk.len())
+                    .map(|j| (fk.origin(j) - before.origin(j)).norm())
+                    .fold(0.0, f64::max);
+                if last && moved < CONVERGED_MOTION * h {
+                    break;
+                }
+            }
+        }
+        tracing::trace!(
+            "{iterations} EM iterations, {finds} neighbour searches: {:.2} ms searching, {:.2} ms E-steps, {:.2} ms M-steps",
+            timing[0] * 1e3,
+            timing[1] * 1e3,
+            timing[2] * 1e3
+        );
+        // The final E-step ran over every texture point at full resolution: which of them
+        // the data supports is the view for the next frame.
+        self.seen.clear();
+        self.seen
+            .extend(self.em.lambda.iter().map(|&l| l > SEEN_WEIGHT));
+        // The final E-step's posteriors say which data points are inliers.
+        let inlier: Vec<bool> = self
+            .em
+            .inlier
+            .iter()
+            .map(|&a| a >= INLIER_POSTERIOR)
+            .collect();
+        let best = self.em.best.clone();
+        if self.options.surface_fit_steps > 0 {
+            self.surface_fit(data, &inlier, &best, sigma_min, &start);
+            fk.update(&self.model.skeleton, &self.pose);
+        }
+        if self.options.texture == TextureSource::RefreshFromData {
+            self.refresh_texture(data, &inlier, &best, &fk);
+        }
+        self.previous = Some(before);
+        let inliers = inlier.iter().filter(|&&b| b).count();
+        Ok(FrameFit {
+            pose: self.pose.clone(),
+            inliers,
+            inlier,
+            em_iterations: iterations,
+        })
+    }
+
+    /// Marks the texture points with data within a few `sigma` in the pose of `fk`.
+    fn update_seen(&mut self, data: &[Point3], fk: &ForwardKinematics, sigma: f64) {
+        let world: Vec<Point3> = self.texture.iter().map(|t| t.world(fk)).collect();
+        em_step(
+            data,
+            None,
+            &world,
+            None,
+            sigma,
+            self.options.outlier_constant,
+            &mut self.grid,
+            &mut self.em,
+        );
+        self.seen.clear();
+        self.seen
+            .extend(self.em.lambda.iter().map(|&l| l > SEEN_WEIGHT));
+    }
+}
+
+/// Prediction: `current` moved on by `gain` times the motion from `previous`.
+fn extrapolate(previous: &Pose, current: &Pose, gain: f64) -> Pose {
+    let mut next = current.clone();
+    for ((n, p), c) in next
+        .local
+        .iter_mut()
+        .zip(&previous.local)
+        .zip(&current.local)
+    {
+        n.translation = c.translation + (c.translation - p.translation) * gain;
+        let step = (p.rotation.inverse() * c.rotation).scaled_axis() * gain;
+        n.rotation = Quat::new_normalize((c.rotation * Quat::from_scaled_axis(step)).into_inner());
+    }
+    next
+}

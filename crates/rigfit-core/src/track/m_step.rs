@@ -1,0 +1,210 @@
+//! The M-step: Levenberg-Marquardt on the weighted pulls of eq. (20) (or eq. 21) plus a
+//! rotation prior toward the frame's start pose.
+
+use super::Tracker;
+use super::texture::TexturePoint;
+use crate::engine::{NormalSink, SkeletonNormalEquations, SubtreeMoments};
+use crate::kinematics::{DofLayout, ForwardKinematics};
+use crate::math::{Point3, Vector3};
+use crate::skeleton::{JointDof, Pose};
+
+/// A point pulled toward a target with a weight.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Pull {
+    pub(super) point: TexturePoint,
+    pub(super) target: Point3,
+    pub(super) weight: f64,
+}
+
+/// Texture points blended with weights in this range get their exact Jacobian (eq. 3);
+/// outside it, the dominant joint's (an error of at most 5% in the other's columns).
+const EXACT_BLEND_MIN: f64 = 0.05;
+const EXACT_BLEND_MAX: f64 = 0.95;
+
+impl Tracker {
+    /// Levenberg-Marquardt steps on `sum w |x(theta) - target|^2` (eq. 20 or 21) plus the
+    /// rotation prior toward `start`.
+    /// With `exact_blend`, blended points get their exact Jacobian; otherwise their
+    /// dominant joint's (cheaper, slightly biased: for the annealing levels above the
+    /// noise level).
+    /// `relax` scales each step (over-relaxed EM: with the M-step's cost quadratic, any
+    /// factor below 2 still lowers it, and EM's slow directions converge faster).
+    pub(super) fn fit(
+        &mut self,
+        pulls: &[Pull],
+        start: &Pose,
+        steps: usize,
+        exact_blend: bool,
+        relax: f64,
+    ) {
+        let mut relaxed: Vec<f64> = Vec::new();
+        if pulls.is_empty() {
+            return;
+        }
+        let skeleton = &self.model.skeleton;
+        let parent = |j: usize| skeleton.joint(j).parent;
+        let mut ne = match self.normal.take() {
+            Some(ne) => ne,
+            None => SkeletonNormalEquations::new(&self.layout, parent),
+        };
+        let inv_h = 1.0 / self.model.height;
+        let prior = self.options.prior_weight;
+        let layout = &self.layout;
+        let objective = |pose: &Pose,
+                         fk: &ForwardKinematics,
+                         ne: Option<(&mut SubtreeMoments, &mut SkeletonNormalEquations)>|
+         -> f64 {
+            let mut cost = 0.0;
+            match ne {
+                Some((moments, ne)) => {
+                    ne.clear();
+                    moments.reset(skeleton.len());
+                    let mut blended = Vec::new();
+                    for pull in pulls {
+                        let x = pull.point.world(fk);
+                        let r = (x - pull.target) * inv_h;
+                        let w = pull.point.weight;
+                        if !exact_blend || !(EXACT_BLEND_MIN..=EXACT_BLEND_MAX).contains(&w) {
+                            // Nearly rigid: the dominant joint's Jacobian.
+                            let j = pull.point.joints[usize::from(w < 0.5)];
+                            moments.add_point(fk, j, &x, &r, pull.weight);
+                        } else {
+                            blended.push((pull, r));
+                        }
+                    }
+                    // Blended points (eq. 3) need the tree or dense form for their
+                    // Jacobian, the weighted sum of both parts' (exact, not summarised by
+                    // moments).
+                    ne.set_allow_articulated(blended.is_empty());
+                    ne.assemble_points(moments, fk, inv_h);
+                    let mut cols: Vec<(usize, Vector3)> = Vec::new();
+                    for (pull, r) in blended {
+                        cols.clear();
+                        pull.point.jacobian(fk, layout, inv_h, &mut cols);
+                        ne.add_point_columns(&r, pull.weight, &cols);
+                    }
+                    rotation_prior(layout, start, pose, prior, &mut |r, w, col| {
+                        ne.add_scalar(r, w, col, 1.0)
+                    });
+                    ne.cost()
+                }
+                None => {
+                    for pull in pulls {
+                        let r = (pull.point.world(fk) - pull.target) * inv_h;
+                        cost += pull.weight * r.norm_squared();
+                    }
+                    rotation_prior(layout, start, pose, prior, &mut |r, w, _| cost += w * r * r);
+                    cost
+                }
+            }
+        };
+        let mut fk = ForwardKinematics::new(skeleton, &self.pose);
+        let mut trial_fk = fk.clone();
+        let mut trial = self.pose.clone();
+        for _ in 0..steps {
+            let cost = objective(&self.pose, &fk, Some((&mut self.moments, &mut ne)));
+            let mut improved = false;
+            for _ in 0..6 {
+                let Some(step) = ne.solve(self.lambda) else {
+                    self.lambda *= 10.0;
+                    continue;
+                };
+                trial.clone_from(&self.pose);
+                if relax == 1.0 {
+                    layout.apply(&mut trial, step);
+                } else {
+                    relaxed.clear();
+                    relaxed.extend(step.iter().map(|d| d * relax));
+                    layout.apply(&mut trial, &relaxed);
+                }
+                trial_fk.update(skeleton, &trial);
+                let trial_cost = objective(&trial, &trial_fk, None);
+                if trial_cost <= cost {
+                    std::mem::swap(&mut self.pose, &mut trial);
+                    std::mem::swap(&mut fk, &mut trial_fk);
+                    self.lambda = (self.lambda / 3.0).max(1e-7);
+                    improved = true;
+                    break;
+                }
+                self.lambda *= 10.0;
+            }
+            if !improved {
+                break;
+            }
+        }
+        self.normal = Some(ne);
+    }
+}
+
+/// `Phi`: each rotating joint's rotation vector away from `start`, per axis.
+fn rotation_prior(
+    layout: &DofLayout,
+    start: &Pose,
+    pose: &Pose,
+    weight: f64,
+    add: &mut dyn FnMut(f64, f64, usize),
+) {
+    if weight <= 0.0 {
+        return;
+    }
+    for j in 0..layout.joint_count() {
+        let Some(o) = layout.offset(j) else { continue };
+        let delta = (start.local[j].rotation.inverse() * pose.local[j].rotation).scaled_axis();
+        match layout.dof(j) {
+            JointDof::Ball => (0..3).for_each(|a| add(delta[a], weight, o + a)),
+            JointDof::Hinge { axis } => add(delta.dot(&axis.normalize()), weight, o),
+            _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::{Rng, SeedableRng};
+
+    use super::*;
+    use crate::humanoid::humanoid;
+    use crate::math::Quat;
+    use crate::track::{ArticulatedModel, TrackOptions};
+
+    /// With every texture point pulled to where it is in a known pose, the M-step finds it.
+    #[test]
+    fn m_step_recovers_a_pose_from_exact_targets() {
+        let rig = humanoid();
+        let model = ArticulatedModel::from_rig(&rig, 1500).expect("model");
+        let rigid = std::env::var("RIGID").is_ok();
+        let options = TrackOptions {
+            bending_exponent: if rigid { 1e6 } else { 2.0 },
+            ..TrackOptions::default()
+        };
+        let mut tracker = Tracker::new(model, options).expect("tracker");
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let mut truth = rig.pose.clone();
+        for j in 1..truth.local.len() {
+            let w = Vector3::new(rng.random(), rng.random(), rng.random()) * 0.3;
+            truth.local[j].rotation *= Quat::from_scaled_axis(w);
+        }
+        truth.local[0].translation += Vector3::new(0.05, -0.02, 0.03);
+        let fk = ForwardKinematics::new(&rig.skeleton, &truth);
+        let pulls: Vec<Pull> = tracker
+            .texture
+            .iter()
+            .map(|t| Pull {
+                point: *t,
+                target: t.world(&fk),
+                weight: 1.0,
+            })
+            .collect();
+        let start = rig.pose.clone();
+        tracker.options.prior_weight = 0.0;
+        tracker.fit(&pulls, &start, 30, true, 1.0);
+        let a = rig.skeleton.joint_positions(&tracker.pose);
+        let b = rig.skeleton.joint_positions(&truth);
+        let err = a
+            .iter()
+            .zip(&b)
+            .map(|(p, q)| (p - q).norm())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-3 * rig.height(), "largest joint error {err}");
+    }
+}

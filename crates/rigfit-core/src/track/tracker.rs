@@ -1,0 +1,117 @@
+//! Setting up a [`Tracker`]: texture points attached to the model's parts, and its
+//! accessors.
+
+use super::parts::PlacedParts;
+use super::texture::TexturePoint;
+use super::{ArticulatedModel, TrackError, TrackOptions, Tracker};
+use crate::engine::SubtreeMoments;
+use crate::engine::em::{Candidates, EmStep};
+use crate::engine::point_grid::PointGrid;
+use crate::kinematics::{DofLayout, ForwardKinematics};
+use crate::math::Point3;
+use crate::skeleton::Pose;
+
+impl Tracker {
+    /// A tracker starting from the model's start pose.
+    pub fn new(model: ArticulatedModel, options: TrackOptions) -> Result<Self, TrackError> {
+        let layout = DofLayout::new(&model.skeleton);
+        if layout.is_empty() {
+            return Err(TrackError::NothingMoves);
+        }
+        let pose = model.start.clone();
+        let fk = ForwardKinematics::new(&model.skeleton, &model.built);
+        let mut placed = PlacedParts::default();
+        model.parts.place(&fk, &mut placed);
+        let texture: Vec<TexturePoint> = model
+            .surface_samples
+            .iter()
+            .enumerate()
+            .filter_map(|(k, p)| {
+                let normal = model.surface_normals.as_ref().map(|n| n[k]);
+                TexturePoint::attach(
+                    &model.parts,
+                    &placed,
+                    &fk,
+                    p,
+                    normal,
+                    options.bending_exponent,
+                    None,
+                )
+            })
+            .collect();
+        if texture.is_empty() {
+            return Err(TrackError::NoParts);
+        }
+        let spacing = typical_spacing(&model.surface_samples, model.height);
+        tracing::debug!(
+            "texture spacing {:.4} of the height",
+            spacing / model.height
+        );
+        Ok(Self {
+            model,
+            options,
+            layout,
+            pose,
+            previous: None,
+            texture,
+            spacing,
+            grid: PointGrid::default(),
+            candidates: Candidates::default(),
+            em: EmStep::default(),
+            moments: SubtreeMoments::new(),
+            normal: None,
+            placed,
+            lambda: 1e-4,
+            seen: Vec::new(),
+        })
+    }
+
+    /// Sets the pose the next frame starts from (forgetting the motion so far).
+    pub fn set_pose(&mut self, pose: &Pose) {
+        self.pose.clone_from(pose);
+        self.previous = None;
+        self.seen.clear();
+    }
+
+    /// The current pose.
+    pub fn pose(&self) -> &Pose {
+        &self.pose
+    }
+
+    /// The model.
+    pub fn model(&self) -> &ArticulatedModel {
+        &self.model
+    }
+
+    /// The texture points' world positions in the current pose.
+    pub fn texture_positions(&self) -> Vec<Point3> {
+        let fk = ForwardKinematics::new(&self.model.skeleton, &self.pose);
+        self.texture.iter().map(|t| t.world(&fk)).collect()
+    }
+}
+
+/// The median distance from a point to its nearest neighbour (a sample of them).
+fn typical_spacing(points: &[Point3], height: f64) -> f64 {
+    if points.len() < 2 {
+        return height;
+    }
+    let grid = PointGrid::new(points, 0.05 * height);
+    let mut d: Vec<f64> = points
+        .iter()
+        .step_by((points.len() / 200).max(1))
+        .filter_map(|p| {
+            let mut best = f64::INFINITY;
+            grid.for_each_within(p, 0.05 * height, |_, d2| {
+                if d2 > 0.0 && d2 < best {
+                    best = d2;
+                }
+            });
+            best.is_finite().then(|| best.sqrt())
+        })
+        .collect();
+    if d.is_empty() {
+        return 0.05 * height;
+    }
+    d.sort_by(f64::total_cmp);
+    d[d.len() / 2]
+}
