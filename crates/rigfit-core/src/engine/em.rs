@@ -127,45 +127,56 @@ pub fn candidate_radius(sigma: f64, margin: f64) -> f64 {
     CUTOFF_SIGMAS * sigma + margin
 }
 
-/// One E-step (eq. 17) of data `data` (each with weight `data_weight[j]`, 1 when `None`)
-/// against model points `model` (each standing for `model_weight[i]` points, 1 when `None`)
-/// at width `sigma`, with outlier constant `outlier_c`. `grid` is rebuilt over `model`.
+/// Points with a weight each (how many points each stands for; 1 for all when `None`).
+#[derive(Debug, Clone, Copy)]
+pub struct WeightedPoints<'a> {
+    pub points: &'a [Point3],
+    pub weights: Option<&'a [f64]>,
+}
+
+impl<'a> WeightedPoints<'a> {
+    /// Every point with weight 1.
+    pub fn unit(points: &'a [Point3]) -> Self {
+        Self {
+            points,
+            weights: None,
+        }
+    }
+}
+
+/// One E-step (eq. 17) of data points against model points (each standing for its weight
+/// in points) at width `sigma`, with outlier constant `outlier_c`. `grid` is rebuilt over
+/// the model.
 pub fn em_step(
-    data: &[Point3],
-    data_weight: Option<&[f64]>,
-    model: &[Point3],
-    model_weight: Option<&[f64]>,
+    data: WeightedPoints<'_>,
+    model: WeightedPoints<'_>,
     sigma: f64,
     outlier_c: f64,
     grid: &mut PointGrid,
     out: &mut EmStep,
 ) {
     let mut candidates = Candidates::default();
-    candidates.find(data, model, candidate_radius(sigma, 0.0), grid);
-    em_step_with(
-        data,
-        data_weight,
-        model,
-        model_weight,
-        sigma,
-        outlier_c,
-        &candidates,
-        out,
+    candidates.find(
+        data.points,
+        model.points,
+        candidate_radius(sigma, 0.0),
+        grid,
     );
+    em_step_with(data, model, sigma, outlier_c, &candidates, out);
 }
 
 /// [`em_step`] over neighbours found beforehand: only `candidates` are considered, and of
 /// them those within the kernel's cutoff of their data point now.
 pub fn em_step_with(
-    data: &[Point3],
-    data_weight: Option<&[f64]>,
-    model: &[Point3],
-    model_weight: Option<&[f64]>,
+    data: WeightedPoints<'_>,
+    model: WeightedPoints<'_>,
     sigma: f64,
     outlier_c: f64,
     candidates: &Candidates,
     out: &mut EmStep,
 ) {
+    let (data, data_weight) = (data.points, data.weights);
+    let (model, model_weight) = (model.points, model.weights);
     let n = model.len();
     let cutoff2 = (CUTOFF_SIGMAS * sigma).powi(2);
     let inv_two_s2 = 0.5 / (sigma * sigma);
@@ -263,10 +274,8 @@ mod tests {
         let mut grid = PointGrid::default();
         let mut out = EmStep::default();
         em_step(
-            &data,
-            None,
-            &model,
-            None,
+            WeightedPoints::unit(&data),
+            WeightedPoints::unit(&model),
             sigma,
             DEWAELE_OUTLIER_CONSTANT,
             &mut grid,
@@ -324,10 +333,24 @@ mod tests {
             .collect();
         let mut grid = PointGrid::default();
         let (mut a, mut b) = (EmStep::default(), EmStep::default());
-        em_step(&data, None, &model, None, 0.01, 3.76, &mut grid, &mut a);
+        em_step(
+            WeightedPoints::unit(&data),
+            WeightedPoints::unit(&model),
+            0.01,
+            3.76,
+            &mut grid,
+            &mut a,
+        );
         let mut lam = vec![0.0; model.len()];
         for chunk in data.chunks(1000) {
-            em_step(chunk, None, &model, None, 0.01, 3.76, &mut grid, &mut b);
+            em_step(
+                WeightedPoints::unit(chunk),
+                WeightedPoints::unit(&model),
+                0.01,
+                3.76,
+                &mut grid,
+                &mut b,
+            );
             for i in 0..lam.len() {
                 lam[i] += b.lambda[i];
             }

@@ -22,7 +22,7 @@ pub mod subtree_moments;
 pub mod tree_solver;
 
 pub use articulated::ArticulatedNormalEquations;
-pub use em::{Candidates, EmStep, candidate_radius, em_step, em_step_with};
+pub use em::{Candidates, EmStep, WeightedPoints, candidate_radius, em_step, em_step_with};
 pub use normal_equations::{NormalEquations, NormalSink};
 pub use point_grid::{PointGrid, voxel_subsample};
 pub use skeleton_normal_equations::SkeletonNormalEquations;

@@ -4,7 +4,7 @@
 
 use super::m_step::Pull;
 use super::{FrameFit, TextureSource, TrackError, Tracker};
-use crate::engine::em::{candidate_radius, em_step, em_step_with};
+use crate::engine::em::{WeightedPoints, candidate_radius, em_step, em_step_with};
 use crate::engine::point_grid::voxel_subsample;
 use crate::kinematics::ForwardKinematics;
 use crate::math::{Point3, Quat};
@@ -161,10 +161,14 @@ impl Tracker {
                 }
                 let t1 = std::time::Instant::now();
                 em_step_with(
-                    level_data,
-                    data_weight.as_deref(),
-                    &world,
-                    model_weight.as_deref(),
+                    WeightedPoints {
+                        points: level_data,
+                        weights: data_weight.as_deref(),
+                    },
+                    WeightedPoints {
+                        points: &world,
+                        weights: model_weight.as_deref(),
+                    },
                     sigma,
                     self.options.outlier_constant,
                     &self.candidates,
@@ -255,10 +259,8 @@ impl Tracker {
     fn update_seen(&mut self, data: &[Point3], fk: &ForwardKinematics, sigma: f64) {
         let world: Vec<Point3> = self.texture.iter().map(|t| t.world(fk)).collect();
         em_step(
-            data,
-            None,
-            &world,
-            None,
+            WeightedPoints::unit(data),
+            WeightedPoints::unit(&world),
             sigma,
             self.options.outlier_constant,
             &mut self.grid,
