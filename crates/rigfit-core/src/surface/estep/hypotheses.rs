@@ -1,0 +1,88 @@
+//! The hypotheses of a pose worth a look in the E-step (eq. 1: each vertex predicted by its
+//! own patch and by the neighbouring patches whose predictions differ), packed in single
+//! precision for the candidate search and the posteriors.
+
+use rayon::prelude::*;
+
+use crate::math::Point3;
+use crate::surface::model::{PatchModel, Predictions};
+
+/// The hypotheses of a pose that are worth a look, vertex by vertex: each vertex predicted by
+/// its own patch, and by each neighbouring patch whose prediction differs from that by more
+/// than `merge` (eq. 1; the others add nothing).
+pub(super) struct Hypotheses {
+    /// Every blend entry packed for the posterior loop, which reads them in random order.
+    pub(super) packed: Vec<PackedHypothesis>,
+    /// The blend entries kept, vertex by vertex, and their positions in single precision
+    /// relative to `origin` (for choosing neighbours, not for the posteriors).
+    pub(super) entry: Vec<u32>,
+    pub(super) origin: Point3,
+    pub(super) local: Vec<[f32; 3]>,
+}
+
+/// One blend entry `(l, v)` in one cache line's half: the prediction of `v` by patch `l`
+/// relative to the origin, `v`'s normal turned by `l` (single precision: they choose and
+/// screen candidates, the posteriors use the blended positions), `v` and `v`'s own patch.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct PackedHypothesis {
+    pub(super) at: [f32; 3],
+    pub(super) vertex: u32,
+    pub(super) normal: [f32; 3],
+    pub(super) patch: u32,
+}
+
+impl Hypotheses {
+    pub(super) fn new(model: &PatchModel, predictions: &Predictions, merge: f64) -> Self {
+        let at = &predictions.at;
+        let origin = at.first().copied().unwrap_or_else(Point3::origin);
+        let packed: Vec<PackedHypothesis> = (0..at.len())
+            .into_par_iter()
+            .map(|e| {
+                let v = model.blend_vertex[e] as usize;
+                let normal = predictions.normal[e];
+                PackedHypothesis {
+                    at: to_local(&at[e], &origin),
+                    vertex: v as u32,
+                    normal: [normal.x as f32, normal.y as f32, normal.z as f32],
+                    patch: model.vertex_patch[v],
+                }
+            })
+            .collect();
+        let merge2 = merge * merge;
+        let mut entry = Vec::with_capacity(model.vertex_count() * 2);
+        let mut local = Vec::with_capacity(model.vertex_count() * 2);
+        for v in 0..model.vertex_count() {
+            let entries = model.blend_entries(v);
+            let first = entries.start;
+            for e in entries {
+                if e == first || (at[e] - at[first]).norm_squared() > merge2 {
+                    entry.push(e as u32);
+                    local.push(packed[e].at);
+                }
+            }
+        }
+        Self {
+            packed,
+            entry,
+            origin,
+            local,
+        }
+    }
+}
+
+/// Squared distance in single precision.
+#[inline]
+pub(super) fn distance2(a: &[f32; 3], b: &[f32; 3]) -> f32 {
+    let (dx, dy, dz) = (a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+    dx * dx + dy * dy + dz * dz
+}
+
+/// `p - origin` in single precision.
+#[inline]
+pub(in crate::surface) fn to_local(p: &Point3, origin: &Point3) -> [f32; 3] {
+    [
+        (p.x - origin.x) as f32,
+        (p.y - origin.y) as f32,
+        (p.z - origin.z) as f32,
+    ]
+}

@@ -1,0 +1,188 @@
+//! The block pattern of the M-step's normal equations (the patch graph) and the weights of
+//! each block fixed by the model: the data term's blend pairs, those majorised onto the
+//! diagonal, and the rest-frame moments of the rigidity term (eq. 4).
+
+use super::block_moments::{OffsetMoments, rigidity_pair_moments};
+use super::sparse_cholesky::SparseCholesky;
+use super::{Block, SolveError};
+use crate::surface::model::PatchModel;
+
+/// Pairs of blended patches whose share of a vertex's data term is at most this
+/// (`alpha_a alpha_b`) are majorised too (see [`PatchSystem`]).
+const SMALL_PAIR: f64 = 1e-2;
+
+/// A blend entry's share of its patch's own (diagonal) block in the data term.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct DiagonalEntry {
+    /// The block `(a, a)` of the entry's patch `a` (read by the vertex-by-vertex reference
+    /// in the tests; the step sums a patch's own block by patch).
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub(super) block: u32,
+    /// `alpha_a^2`, plus `alpha_a alpha_b` for every pair `b` majorised onto it.
+    pub(super) weight: f64,
+}
+
+/// A pair of blend entries of one vertex kept in the data term: their positions `first <
+/// second` in the vertex's row of the blend (ordered so that `k_first < k_second`), their
+/// block `(k_first, k_second)` and its weight `alpha_first alpha_second`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct BlendPair {
+    pub(super) first: u16,
+    pub(super) second: u16,
+    pub(super) block: u32,
+    pub(super) weight: f64,
+}
+
+/// The rigidity term (eq. 4) of neighbouring patches `k < l`: its blocks `(k,k)`, `(l,l)`,
+/// `(k,l)` and the rest-frame moments for each.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct RigidityPair {
+    pub(super) k: usize,
+    pub(super) l: usize,
+    pub(super) blocks: [u32; 3],
+    pub(super) moments: [OffsetMoments; 3],
+}
+
+/// The block pattern of the normal equations and its reusable symbolic factorisation.
+#[derive(Clone, Debug)]
+pub struct PatchSystem {
+    pub(super) patch_count: usize,
+    /// For each block column `l`, the block rows `k <= l` present (sorted).
+    pub(super) column_rows: Vec<Vec<u32>>,
+    /// Offset of column `l`'s first block in `blocks`.
+    pub(super) column_offset: Vec<usize>,
+    /// The patches `(k, l)`, `k <= l`, of every block.
+    pub(super) block_patches: Vec<(u32, u32)>,
+    /// The data term's normal equations, per blend entry `(v, a)`: the block `(a, a)` and its
+    /// weight. A vertex's Jacobian sums its blended patches' (eq. 2), so its term couples
+    /// every pair of them; the cross term of a pair that is not neighbouring patches (or
+    /// whose weight `alpha_a alpha_b` is tiny) is bounded by the two patches' own terms,
+    /// `2 u^T P w <= u^T P u + w^T P w` (P positive semi-definite), and added to them here:
+    /// `alpha_a^2 + alpha_a sum_b alpha_b` over such `b`. The system's pattern stays the
+    /// patch graph (far less fill in the factorisation, fewer products to assemble), and the
+    /// step minimises a majoriser of the Gauss-Newton model, so it still descends.
+    pub(super) diagonal: Vec<DiagonalEntry>,
+    /// `pairs[pair_start[v]..pair_start[v + 1]]`: the pairs of blend entries of `v` kept
+    /// (see [`BlendPair`]).
+    pair_start: Vec<u32>,
+    pairs: Vec<BlendPair>,
+    /// For each neighbouring pair `(k, l)`: blocks `(k,k)`, `(l,l)`, `(min,max)`, and the
+    /// rest-frame moments of its rigidity term (eq. 4) for those blocks: the weights
+    /// `alpha_k(v) + alpha_l(v)` never change, so the term's normal equations cost O(1) per
+    /// pair instead of O(vertices).
+    pub(super) rigidity_pairs: Vec<RigidityPair>,
+    /// The scalar pattern's fill-reducing order and factorisation.
+    cholesky: SparseCholesky,
+}
+
+impl PatchSystem {
+    pub fn new(model: &PatchModel) -> Result<Self, SolveError> {
+        let n = model.patch_count();
+        let mut column_rows: Vec<Vec<u32>> = (0..n).map(|l| vec![l as u32]).collect();
+        let mut add = |a: usize, b: usize| {
+            let (k, l) = if a <= b { (a, b) } else { (b, a) };
+            column_rows[l].push(k as u32);
+        };
+        // The pattern is the patch graph: blend pairs that are not neighbours are majorised
+        // onto the diagonal (see `diagonal`), so they add no fill.
+        for (k, l) in model.neighbour_pairs() {
+            add(k, l);
+        }
+        for rows in &mut column_rows {
+            rows.sort_unstable();
+            rows.dedup();
+        }
+        let mut column_offset = Vec::with_capacity(n + 1);
+        let mut total = 0;
+        for rows in &column_rows {
+            column_offset.push(total);
+            total += rows.len();
+        }
+        column_offset.push(total);
+        let block_patches = column_rows
+            .iter()
+            .enumerate()
+            .flat_map(|(l, rows)| rows.iter().map(move |&k| (k, l as u32)))
+            .collect();
+        let block_of = |column_rows: &[Vec<u32>], a: usize, b: usize| -> u32 {
+            let (k, l) = if a <= b { (a, b) } else { (b, a) };
+            let slot = column_rows[l]
+                .binary_search(&(k as u32))
+                .expect("every pair is in the pattern");
+            (column_offset[l] + slot) as u32
+        };
+        let joined = |a: usize, b: usize| model.neighbours[a].binary_search(&(b as u32)).is_ok();
+        let mut diagonal = Vec::with_capacity(model.blend_patch.len());
+        let mut pair_start = Vec::with_capacity(model.vertex_count() + 1);
+        let mut pairs = Vec::new();
+        pair_start.push(0u32);
+        for v in 0..model.vertex_count() {
+            let blend: Vec<(usize, f64)> = model.blend(v).collect();
+            for (i, &(a, alpha_a)) in blend.iter().enumerate() {
+                let mut weight = alpha_a * alpha_a;
+                for (j, &(b, alpha_b)) in blend.iter().enumerate() {
+                    if i == j {
+                        continue;
+                    }
+                    if joined(a, b) && alpha_a * alpha_b > SMALL_PAIR {
+                        if a < b {
+                            pairs.push(BlendPair {
+                                first: i as u16,
+                                second: j as u16,
+                                block: block_of(&column_rows, a, b),
+                                weight: alpha_a * alpha_b,
+                            });
+                        }
+                    } else {
+                        weight += alpha_a * alpha_b;
+                    }
+                }
+                diagonal.push(DiagonalEntry {
+                    block: block_of(&column_rows, a, a),
+                    weight,
+                });
+            }
+            pair_start.push(pairs.len() as u32);
+        }
+        let rigidity_pairs = model
+            .neighbour_pairs()
+            .into_iter()
+            .map(|(k, l)| RigidityPair {
+                k,
+                l,
+                blocks: [
+                    block_of(&column_rows, k, k),
+                    block_of(&column_rows, l, l),
+                    block_of(&column_rows, k, l),
+                ],
+                moments: rigidity_pair_moments(model, k, l),
+            })
+            .collect();
+        let cholesky = SparseCholesky::new(&column_rows, &column_offset)?;
+        Ok(Self {
+            patch_count: n,
+            column_rows,
+            column_offset,
+            block_patches,
+            diagonal,
+            pair_start,
+            pairs,
+            rigidity_pairs,
+            cholesky,
+        })
+    }
+
+    /// The pairs of blend entries of vertex `v` kept in the data term (see `pairs`).
+    pub(super) fn vertex_pairs(&self, v: usize) -> &[BlendPair] {
+        &self.pairs[self.pair_start[v] as usize..self.pair_start[v + 1] as usize]
+    }
+
+    pub fn block_count(&self) -> usize {
+        self.column_offset[self.patch_count]
+    }
+
+    /// Solves `H x = rhs` for the assembled blocks (upper triangle read).
+    pub(super) fn solve(&self, blocks: &[Block], rhs: &mut [f64]) -> Result<(), SolveError> {
+        self.cholesky.solve(blocks, rhs)
+    }
+}

@@ -1,0 +1,255 @@
+//! The M-step's normal equations summed vertex by vertex, as before the moment form, and the
+//! test that the moment form takes the same step.
+#![allow(clippy::all)]
+
+use rayon::prelude::*;
+
+use super::block_moments::add_jtr;
+use super::gauss_newton::{damp_solve_and_apply, data_terms};
+use super::patch_system::{BlendPair, DiagonalEntry, RigidityPair};
+use super::{Block, PatchSystem, SolveError, StepWeights, gauss_newton_step};
+use crate::math::{Matrix3, Point3, Vector3, exp_rotation, skew};
+use crate::surface::cases::torus;
+use crate::surface::estep::VertexTargets;
+use crate::surface::model::{PatchModel, PatchOptions, PatchPose};
+use rand::{Rng, SeedableRng};
+
+type PairTerms = (usize, usize, [u32; 3], [Block; 3], [f64; 12]);
+/// Adds `w * J_a^T J_b` for `J = [-[q]x, I]` (the Jacobian of a prediction with respect to
+/// its patch's rotation increment and centre shift).
+#[inline]
+pub fn add_jtj(block: &mut Block, w: f64, qa: &Vector3, qb: &Vector3) {
+    let sa = skew(qa);
+    let sb = skew(qb);
+    // J_a^T J_b = [[-[qa]x [qb]x, [qa]x], [-[qb]x, I]].
+    let tl = -(sa * sb);
+    for r in 0..3 {
+        for c in 0..3 {
+            block[6 * r + c] += w * tl[(r, c)];
+            block[6 * r + c + 3] += w * sa[(r, c)];
+            block[6 * (r + 3) + c] -= w * sb[(r, c)];
+        }
+        block[6 * (r + 3) + r + 3] += w;
+    }
+}
+
+/// Adds `J_a^T P J_b` for `J = [-[q]x, I]` and a symmetric metric `P` (already weighted).
+#[inline]
+pub fn add_jtpj(block: &mut Block, p: &Matrix3, qa: &Vector3, qb: &Vector3) {
+    let sa = skew(qa);
+    let sb = skew(qb);
+    // J_a^T P J_b = [[-[qa]x P [qb]x, [qa]x P], [-P [qb]x, P]].
+    let sap = sa * p;
+    let tl = -(sap * sb);
+    let bl = -(p * sb);
+    for r in 0..3 {
+        for c in 0..3 {
+            block[6 * r + c] += tl[(r, c)];
+            block[6 * r + c + 3] += sap[(r, c)];
+            block[6 * (r + 3) + c] += bl[(r, c)];
+            block[6 * (r + 3) + c + 3] += p[(r, c)];
+        }
+    }
+}
+
+/// One Gauss-Newton step on `data * sum_v W_v |x(v) - ybar_v|_P^2 + rigidity * E_r`, applied
+/// to `pose` in place, where `P = n n^T + tangential (I - n n^T)` for the vertex normal `n`.
+pub fn reference_step(
+    model: &PatchModel,
+    system: &PatchSystem,
+    pose: &mut PatchPose,
+    positions: &[Point3],
+    normals: &[Vector3],
+    targets: &VertexTargets,
+    weights: &StepWeights,
+) -> Result<(), SolveError> {
+    let n = model.patch_count();
+    let mut blocks = vec![[0.0; 36]; system.block_count()];
+    let mut gradient = vec![0.0; 6 * n];
+
+    // Data term, vertex by vertex: residual x(v) - ybar_v with weight W_v; the Jacobian of
+    // x(v) is sum_k alpha_k(v) J_k(v) (eq. 2).
+    let data_terms: Vec<(usize, Matrix3, Vector3)> =
+        data_terms(positions, normals, targets, weights)
+            .into_iter()
+            .map(|t| (t.vertex, t.metric, t.residual))
+            .collect();
+    // Two halves in parallel, each into its own blocks, then summed.
+    let half = data_terms.len().div_ceil(2).max(1);
+    let partial: Vec<(Vec<Block>, Vec<f64>)> = data_terms
+        .par_chunks(half)
+        .map(|terms| {
+            let mut blocks = vec![[0.0; 36]; system.block_count()];
+            let mut gradient = vec![0.0; 6 * n];
+            let mut blend: Vec<(usize, f64, Vector3)> = Vec::with_capacity(16);
+            for &(v, metric, r) in terms {
+                let pr = metric * r;
+                blend.clear();
+                blend.extend(
+                    model
+                        .blend(v)
+                        .map(|(k, a)| (k, a, model.offset(pose, k, v))),
+                );
+                let first = model.blend_start[v] as usize;
+                for (i, &(k, alpha, q)) in blend.iter().enumerate() {
+                    add_jtr(&mut gradient[6 * k..6 * k + 6], alpha, &q, &pr);
+                    let DiagonalEntry { block, weight } = system.diagonal[first + i];
+                    add_jtpj(&mut blocks[block as usize], &(metric * weight), &q, &q);
+                }
+                for &BlendPair {
+                    first: i,
+                    second: j,
+                    block,
+                    weight,
+                } in system.vertex_pairs(v)
+                {
+                    let (_, _, qa) = blend[i as usize];
+                    let (_, _, qb) = blend[j as usize];
+                    add_jtpj(&mut blocks[block as usize], &(metric * weight), &qa, &qb);
+                }
+            }
+            (blocks, gradient)
+        })
+        .collect();
+    for (b, g) in partial {
+        for (t, s) in blocks.iter_mut().zip(&b) {
+            for (x, y) in t.iter_mut().zip(s) {
+                *x += y;
+            }
+        }
+        for (x, y) in gradient.iter_mut().zip(&g) {
+            *x += y;
+        }
+    }
+
+    // Rigidity (eq. 4): residual x_k(v) - x_l(v) over v in P_k and P_l, weight
+    // alpha_k(v) + alpha_l(v); the Jacobian is J_k(v) for patch k and -J_l(v) for patch l.
+    let rigidity: Vec<PairTerms> = system
+        .rigidity_pairs
+        .par_iter()
+        .map(
+            |&RigidityPair {
+                 k, l, blocks: ids, ..
+             }| {
+                let mut b = [[0.0; 36]; 3];
+                let mut g = [0.0; 12];
+                for &v in model.members[k].iter().chain(&model.members[l]) {
+                    let v = v as usize;
+                    let beta = weights.rigidity * (model.alpha(k, v) + model.alpha(l, v));
+                    let qk = model.offset(pose, k, v);
+                    let ql = model.offset(pose, l, v);
+                    let r = (pose.centre[k] + qk) - (pose.centre[l] + ql);
+                    add_jtj(&mut b[0], beta, &qk, &qk);
+                    add_jtj(&mut b[1], beta, &ql, &ql);
+                    add_jtj(&mut b[2], -beta, &qk, &ql);
+                    add_jtr(&mut g[..6], beta, &qk, &r);
+                    add_jtr(&mut g[6..], -beta, &ql, &r);
+                }
+                (k, l, ids, b, g)
+            },
+        )
+        .collect();
+    // Pairs are (k, l) with k < l: the cross block is stored as it is.
+    for (k, l, ids, b, g) in rigidity {
+        for (slot, block) in ids.iter().zip(&b) {
+            for (t, s) in blocks[*slot as usize].iter_mut().zip(block) {
+                *t += s;
+            }
+        }
+        for i in 0..6 {
+            gradient[6 * k + i] += g[i];
+            gradient[6 * l + i] += g[6 + i];
+        }
+    }
+
+    damp_solve_and_apply(
+        model,
+        system,
+        pose,
+        &mut blocks,
+        &gradient,
+        targets,
+        weights,
+    )
+}
+
+/// The moment form of the normal equations takes the same step as summing vertex by
+/// vertex.
+#[test]
+fn moment_assembly_matches_vertex_by_vertex_sums() {
+    let reference = torus(30, 15);
+    let model = PatchModel::new(&reference, &PatchOptions::default()).expect("model");
+    let system = PatchSystem::new(&model).expect("system");
+    let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+    let mut pose = model.rest_pose();
+    for k in 0..model.patch_count() {
+        let w = Vector3::new(rng.random(), rng.random(), rng.random()) * 0.3;
+        pose.rotation[k] = exp_rotation(&w).to_rotation_matrix().into_inner();
+        pose.centre[k] += Vector3::new(rng.random(), rng.random(), rng.random()) * 0.05;
+    }
+    let positions = model.positions(&pose);
+    let normals = model.normals(&pose);
+    let n = model.vertex_count();
+    let mut targets = VertexTargets {
+        weight: vec![0.0; n],
+        weighted_sum: vec![Vector3::zeros(); n],
+        weighted_square: vec![0.0; n],
+        ..Default::default()
+    };
+    for v in 0..n {
+        if rng.random::<f64>() < 0.8 {
+            let w: f64 = rng.random();
+            let y =
+                positions[v].coords + Vector3::new(rng.random(), rng.random(), rng.random()) * 0.1;
+            targets.weight[v] = w;
+            targets.weighted_sum[v] = y * w;
+            targets.weighted_square[v] = w * y.norm_squared();
+        }
+    }
+    for (data, rigidity, tangential) in [
+        (40.0, 0.0, 1.0),
+        (40.0, 0.0, 0.0),
+        (0.0, 3.0, 1.0),
+        (40.0, 3.0, 0.3),
+    ] {
+        let weights = StepWeights {
+            data,
+            rigidity,
+            damping: 1e-3,
+            tangential,
+            relaxation: 1.0,
+        };
+        let mut moment_pose = pose.clone();
+        gauss_newton_step(
+            &model,
+            &system,
+            &mut moment_pose,
+            &positions,
+            &normals,
+            &targets,
+            &weights,
+        )
+        .expect("step");
+        let mut vertex_pose = pose.clone();
+        reference_step(
+            &model,
+            &system,
+            &mut vertex_pose,
+            &positions,
+            &normals,
+            &targets,
+            &weights,
+        )
+        .expect("step");
+        for k in 0..model.patch_count() {
+            let dr = (moment_pose.rotation[k] - vertex_pose.rotation[k])
+                .abs()
+                .max();
+            let dc = (moment_pose.centre[k] - vertex_pose.centre[k]).norm();
+            assert!(
+                dr < 1e-9 && dc < 1e-9,
+                "{data} {rigidity} {tangential} patch {k}: rotation {dr}, centre {dc}"
+            );
+        }
+    }
+}
