@@ -5,8 +5,12 @@
 //! adds a `rigfit` animation, leaving every other part of the file intact.
 
 mod accessor;
+mod animation;
 mod container;
+mod mesh;
+mod nodes;
 mod read;
+mod skin;
 mod write;
 
 use std::path::{Path, PathBuf};
@@ -148,7 +152,7 @@ impl GltfDocument {
 
     /// Every mesh of the file with its vertex and triangle counts.
     pub fn mesh_summaries(&self) -> Vec<MeshSummary> {
-        read::mesh_summaries(&self.json)
+        mesh::mesh_summaries(&self.json)
     }
 
     /// The keys of the `rigfit` animation already in the file, as (time, pose) pairs.
