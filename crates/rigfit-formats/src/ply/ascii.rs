@@ -112,14 +112,7 @@ impl RowSource for AsciiSource<'_> {
 
 #[cfg(test)]
 mod tests {
-    use rigfit_core::TriMesh;
-
-    use super::*;
-    use crate::ply::parse_ply;
-
-    fn ascii(body: &str) -> Result<TriMesh, ParseError> {
-        parse_ply(body.as_bytes())
-    }
+    use crate::ply::tests::ascii;
 
     #[test]
     fn short_and_long_rows() {

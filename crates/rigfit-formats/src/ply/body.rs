@@ -147,12 +147,7 @@ pub(super) fn read_body(
 
 #[cfg(test)]
 mod tests {
-    use super::*;
-    use crate::ply::parse_ply;
-
-    fn ascii(body: &str) -> Result<TriMesh, ParseError> {
-        parse_ply(body.as_bytes())
-    }
+    use crate::ply::tests::ascii;
 
     #[test]
     fn quad_is_fanned_and_crlf_header_tolerated() {

@@ -308,14 +308,7 @@ impl Layout {
 
 #[cfg(test)]
 mod tests {
-    use rigfit_core::TriMesh;
-
-    use super::*;
-    use crate::ply::parse_ply;
-
-    fn ascii(body: &str) -> Result<TriMesh, ParseError> {
-        parse_ply(body.as_bytes())
-    }
+    use crate::ply::tests::ascii;
 
     #[test]
     fn header_errors_name_the_line() {

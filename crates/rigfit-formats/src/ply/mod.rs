@@ -66,3 +66,15 @@ pub fn read_ply(path: &Path) -> Result<TriMesh, FormatError> {
     let _span = tracing::warn_span!("reading", file = %path.display()).entered();
     parse_ply(&bytes).map_err(|e| FormatError::parse(path, e))
 }
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use rigfit_core::TriMesh;
+
+    use crate::error::ParseError;
+
+    /// Parses PLY text (the unit tests' files).
+    pub(crate) fn ascii(body: &str) -> Result<TriMesh, ParseError> {
+        super::parse_ply(body.as_bytes())
+    }
+}
