@@ -68,19 +68,14 @@ pub fn read_jobs(py: Python<'_>, path: PathBuf) -> PyResult<(Py<PyAny>, PathBuf)
         .detach(|| batch::read_jobs(&path))
         .map_err(|e| error(format!("{e:#}")))?;
     let takes = Value::Array(file.takes.iter().map(take_json).collect());
-    let base = file
-        .takes
-        .first()
-        .map(|t| t.base.clone())
-        .unwrap_or_default();
-    Ok((to_python(py, &takes)?, base))
+    Ok((to_python(py, &takes)?, file.base))
 }
 
 /// Runs every take of a job file on ``workers`` threads, as ``rigfit batch`` does: a line
 /// on stderr per failed take, the others carrying on, the summary report written to
 /// ``report`` (if given) and returned as a dict (``done``, ``failed``, ``takes`` with each
 /// take's ``status``, ``error``, ``seconds``). Raises ``RigfitError`` only for a bad job
-/// file or report path.
+/// file, report path or worker count (1 to 256).
 #[pyfunction]
 #[pyo3(signature = (path, *, workers=1, report=None, progress=false))]
 pub fn run_batch(
@@ -90,9 +85,6 @@ pub fn run_batch(
     report: Option<PathBuf>,
     progress: bool,
 ) -> PyResult<Py<PyAny>> {
-    if !(1..=256).contains(&workers) {
-        return Err(error(format!("workers: expected 1 to 256, got {workers}")));
-    }
     let outcome = py
         .detach(|| batch::run_batch(&path, report.as_deref(), workers, progress))
         .map_err(|e| error(format!("{e:#}")))?;

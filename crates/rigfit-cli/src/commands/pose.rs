@@ -52,9 +52,6 @@ pub struct PoseArgs {
     pub render: Option<PathBuf>,
     #[command(flatten)]
     pub picture: super::render::PictureArgs,
-    /// No progress bar (a take run by `rigfit batch`); not an option of the command line.
-    #[arg(skip)]
-    pub quiet: bool,
 }
 
 /// Parses `--start-frame`.

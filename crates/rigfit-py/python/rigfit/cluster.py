@@ -89,7 +89,7 @@ def run_batch(
     from distributed import Client, as_completed
 
     takes, base_dir = rigfit.read_jobs(jobs)
-    base_dir = str(Path(base_dir).resolve()) if str(base_dir) else os.getcwd()
+    base_dir = str(Path(base_dir).resolve())  # "" (a job file in the current folder) is it
     if report is not None:
         report = Path(report)
         if not report.parent.is_dir():

@@ -29,7 +29,8 @@ pub struct Take {
 /// The takes of a job file.
 #[derive(Debug, Clone)]
 pub struct JobFile {
-    pub path: PathBuf,
+    /// The folder the takes' relative paths start from (the file's own).
+    pub base: PathBuf,
     pub takes: Vec<Take>,
 }
 
@@ -69,7 +70,7 @@ pub fn parse_jobs(bytes: &[u8], path: &Path, base: &Path) -> anyhow::Result<JobF
         .collect::<anyhow::Result<Vec<Take>>>()?;
     check_distinct(&takes).map_err(|e| anyhow!("{here}: {e}"))?;
     Ok(JobFile {
-        path: path.to_path_buf(),
+        base: base.to_path_buf(),
         takes,
     })
 }

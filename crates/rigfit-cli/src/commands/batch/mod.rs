@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use anyhow::{Context, anyhow, bail};
 use clap::Parser;
-use rigfit_formats::files::{check_input, check_outputs, write_atomic};
+use rigfit_formats::files::{check_outputs, write_atomic};
 use serde_json::{Value, json};
 
 use jobs::lexical;
@@ -27,9 +27,12 @@ pub struct BatchArgs {
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// Takes run at once, each on a thread of its own (the solvers share the cores).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=256))]
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=MAX_WORKERS as i64))]
     pub workers: u16,
 }
+
+/// The most takes run at once.
+pub const MAX_WORKERS: u16 = 256;
 
 /// What running one take did.
 #[derive(Debug, Clone)]
@@ -134,10 +137,8 @@ fn execute(take: &Take) -> anyhow::Result<String> {
         }
     }
     match command {
-        TakeCommand::Pose(mut args) => {
-            args.quiet = true;
-            super::pose::run(&args)
-        }
+        // Posing prints nothing and shows no progress: it returns its summary.
+        TakeCommand::Pose(args) => super::pose::run(&args),
         TakeCommand::Track(mut args) => {
             args.quiet = true;
             super::track::run(&args)
@@ -190,20 +191,21 @@ pub fn run_takes(
         .collect()
 }
 
-/// Runs a job file: every take, a progress bar, a line per failed take on stderr, the
-/// report, and the summary on stdout. Errors only for a bad job file or report path.
+/// Runs a job file: every take on `workers` threads (1 to [`MAX_WORKERS`]), a progress bar,
+/// a line per failed take on stderr, the report. Errors only for a bad job file, report
+/// path or worker count.
 pub fn run_batch(
     jobs: &Path,
     report: Option<&Path>,
     workers: usize,
     show_progress: bool,
 ) -> anyhow::Result<BatchOutcome> {
-    check_input(jobs)?;
-    if let Some(report) = report {
-        check_outputs(&[jobs], &[report])?;
+    if !(1..=usize::from(MAX_WORKERS)).contains(&workers) {
+        bail!("workers: expected 1 to {MAX_WORKERS}, got {workers}");
     }
     let file = read_jobs(jobs)?;
     if let Some(report) = report {
+        check_outputs(&[jobs], &[report])?;
         if file
             .takes
             .iter()
@@ -243,7 +245,7 @@ pub fn run_batch(
     let outcome = BatchOutcome {
         jobs: jobs.to_path_buf(),
         takes,
-        workers: workers.max(1),
+        workers,
         seconds: t0.elapsed().as_secs_f64(),
     };
     if let Some(report) = report {
