@@ -13,6 +13,21 @@ use crate::gltf::GltfDocument;
 /// keys of an export): a BVH output holds a row for every frame up to it.
 pub const MAX_FRAME: usize = 100_000;
 
+/// The frame rates an animation is written at (frames per second), bounds included.
+pub const FPS_RANGE: std::ops::RangeInclusive<f64> = 1e-3..=1e6;
+
+/// What is wrong with `fps` as the frame rate of a written animation, if anything (the
+/// caller names its option).
+pub fn fps_problem(fps: f64) -> Option<String> {
+    (!(fps.is_finite() && FPS_RANGE.contains(&fps))).then(|| {
+        format!(
+            "expected a number of frames per second from {} to {}, got {fps}",
+            FPS_RANGE.start(),
+            FPS_RANGE.end()
+        )
+    })
+}
+
 /// Checks a frame number to write: at most [`MAX_FRAME`], or within the `existing` frames.
 fn check_frame(out: &Path, frame: usize, existing: usize) -> Result<(), FormatError> {
     if frame <= MAX_FRAME || frame < existing {

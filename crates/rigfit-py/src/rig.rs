@@ -16,9 +16,6 @@ use crate::arrays::{Rows, frames, number, point_rows, to_rows, to_triangles};
 use crate::error;
 use crate::skeleton::PySkeleton;
 
-/// The frame rates `Rig.save_animation` takes (those of `rigfit track --fps`).
-const FPS_RANGE: std::ops::RangeInclusive<f64> = 1e-3..=1e6;
-
 /// A rigged character read from a file: its skeleton, stored pose and animations.
 #[pyclass(module = "rigfit", name = "Rig", frozen)]
 #[derive(Debug)]
@@ -222,12 +219,8 @@ impl PyRig {
         #[pyo3(from_py_with = fps)] fps: f64,
     ) -> PyResult<()> {
         self.check_output(&path)?;
-        if !(fps.is_finite() && FPS_RANGE.contains(&fps)) {
-            return Err(error(format!(
-                "fps: expected a number of frames per second from {} to {}, got {fps}",
-                FPS_RANGE.start(),
-                FPS_RANGE.end()
-            )));
+        if let Some(problem) = rigfit_formats::rig_file::fps_problem(fps) {
+            return Err(error(format!("fps: {problem}")));
         }
         let skeleton = self.skeleton.get();
         let n = skeleton.len();

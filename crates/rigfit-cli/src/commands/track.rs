@@ -139,11 +139,8 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<String> {
             args.noise
         );
     }
-    if !(args.fps.is_finite() && (1e-3..=1e6).contains(&args.fps)) {
-        bail!(
-            "--fps: expected a number of frames per second from 0.001 to 1000000, got {}",
-            args.fps
-        );
+    if let Some(problem) = rigfit_formats::rig_file::fps_problem(args.fps) {
+        bail!("--fps: {problem}");
     }
     super::check_rig_options(&args.rig, args.skin.as_deref(), args.start_frame.as_deref())?;
     let outputs: Vec<&Path> = [&args.output, &args.report, &args.render]
