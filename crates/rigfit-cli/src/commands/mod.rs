@@ -13,14 +13,7 @@ pub mod track;
 
 use std::path::Path;
 
-use rigfit_core::TriMesh;
 use rigfit_formats::error::extension;
-
-/// Reads a mesh or point cloud by extension (.ply, .obj): the frames of `track` and
-/// `surface`, the meshes `render` draws.
-pub fn read_mesh(path: &Path) -> anyhow::Result<TriMesh> {
-    Ok(rigfit_formats::mesh_file::read_mesh(path)?)
-}
 
 /// The files a rig was read from: the rig and the external buffers of a glTF.
 pub fn rig_inputs(rig_file: &rigfit_formats::rig_file::RigFile) -> Vec<std::path::PathBuf> {

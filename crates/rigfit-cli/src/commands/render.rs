@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use rigfit_formats::error::{extension, write_atomic};
+use rigfit_formats::mesh_file::read_mesh;
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 use rigfit_render::{Image, RenderOptions, Scene, View};
 
@@ -121,7 +122,7 @@ fn add_file(scene: &mut Scene, path: &Path, rig_options: &RigOptions) -> anyhow:
             scene.add_rig(&file.rig, &file.rig.pose);
         }
         "ply" | "obj" => {
-            scene.add_mesh(&super::read_mesh(path)?);
+            scene.add_mesh(&read_mesh(path)?);
         }
         "json" => {
             let strokes = rigfit_formats::strokes::read_strokes(path)?;

@@ -8,6 +8,7 @@ use anyhow::{Context, anyhow};
 use rigfit_core::TriMesh;
 use rigfit_core::surface::{Observations, SurfaceError, SurfaceOptions, SurfaceTracker};
 use rigfit_formats::files::{commit_all, stage};
+use rigfit_formats::mesh_file::{read_mesh, read_surface};
 use rigfit_formats::ply::ply_bytes;
 use serde_json::json;
 
@@ -61,11 +62,6 @@ pub struct SurfaceArgs {
     /// No progress bar (a take run by `rigfit batch`); not an option of the command line.
     #[arg(skip)]
     pub quiet: bool,
-}
-
-/// The reference: a mesh file, or the skinned meshes of a rig in its stored pose.
-fn read_reference(path: &Path) -> anyhow::Result<TriMesh> {
-    Ok(rigfit_formats::mesh_file::read_surface(path)?)
 }
 
 fn named(path: &Path, e: SurfaceError) -> anyhow::Error {
@@ -170,7 +166,7 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<String> {
         );
     }
     super::check_files(&inputs, &outputs)?;
-    let reference = read_reference(&args.mesh)?;
+    let reference = read_surface(&args.mesh)?;
     let mut tracker =
         SurfaceTracker::new(&reference, &options).map_err(|e| named(&args.mesh, e))?;
     // A progress bar on stderr (indicatif hides it when stderr is not a terminal).
@@ -189,7 +185,7 @@ pub fn run(args: &SurfaceArgs) -> anyhow::Result<String> {
     let shown = rigfit_render::pick_frames(args.frames.len(), 8);
     let mut shown_points = Vec::new();
     for (i, path) in args.frames.iter().enumerate() {
-        let frame = super::read_mesh(path)?;
+        let frame = read_mesh(path)?;
         if args.render.is_some() && shown.contains(&i) {
             shown_points.push((i, frame.vertices.clone()));
         }
@@ -294,7 +290,7 @@ fn write_outputs(
                     .iter()
                     .zip(results)
                     .map(|(file, r)| {
-                        let truth = super::read_mesh(file)?;
+                        let truth = read_mesh(file)?;
                         if truth.vertices.len() != r.1.positions.len() {
                             return Err(anyhow!(
                                 "{}: {} vertices, the reference has {}",

@@ -8,6 +8,7 @@ use anyhow::{anyhow, bail};
 use rigfit_core::track::{ArticulatedModel, FrameFit, TrackOptions, Tracker};
 use rigfit_core::{Point3, Pose};
 use rigfit_formats::files::{commit_all, stage};
+use rigfit_formats::mesh_file::read_mesh;
 use rigfit_formats::report::{to_text, track_frame_json};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 use serde_json::json;
@@ -111,7 +112,7 @@ fn read_truth(path: &Path) -> anyhow::Result<Vec<std::collections::HashMap<Strin
 
 /// Reads one frame's points (vertices of a .ply / .obj cloud or mesh).
 pub fn read_points(path: &Path) -> anyhow::Result<Vec<Point3>> {
-    let mesh = super::read_mesh(path)?;
+    let mesh = read_mesh(path)?;
     if mesh.vertices.is_empty() {
         bail!("{}: the point cloud is empty", path.display());
     }
