@@ -10,21 +10,6 @@ import rigfit
 BROKEN = {"broken-strokes", "broken-frame"}
 
 
-def write_ply(path: Path, points: np.ndarray) -> None:
-    """An ASCII PLY point cloud."""
-    header = f"ply\nformat ascii 1.0\nelement vertex {len(points)}\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
-    rows = "\n".join(f"{x:.6f} {y:.6f} {z:.6f}" for x, y, z in points)
-    path.write_text(header + rows + "\n")
-
-
-def read_ply_vertices(path: Path) -> np.ndarray:
-    """The vertices of an ASCII PLY whose header lists x y z first (bunny.ply)."""
-    lines = path.read_text().splitlines()
-    count = next(int(l.split()[2]) for l in lines if l.startswith("element vertex"))
-    start = lines.index("end_header") + 1
-    return np.array([[float(v) for v in l.split()[:3]] for l in lines[start : start + count]])
-
-
 def rotation_y(angle: float) -> np.ndarray:
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
@@ -48,16 +33,16 @@ def make_inputs(asset, folder: Path, frames: int = 3) -> dict[str, object]:
         rotations, translations = bcn.sample(1.5 + k / 30)
         cloud = rigfit.Tracker(bcn, rotations, translations).surface_points()
         path = folder / f"bcn_{k:04d}.ply"
-        write_ply(path, cloud)
+        rigfit.save_mesh(path, cloud)
         track_frames.append(path)
-    bunny = read_ply_vertices(asset("bunny/bunny.ply"))
+    bunny, _ = rigfit.load_mesh(asset("bunny/bunny.ply"))
     rng = np.random.default_rng(5)
     surface_frames = []
     for k in range(frames):
         moved = (bunny - bunny.mean(0)) @ rotation_y(0.02 * (k + 1)).T + bunny.mean(0)
         moved += rng.normal(scale=1e-4, size=moved.shape)
         path = folder / f"bunny_{k:04d}.ply"
-        write_ply(path, moved)
+        rigfit.save_mesh(path, moved)
         surface_frames.append(path)
     broken = folder / "broken_0000.ply"
     broken.write_text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1\n")

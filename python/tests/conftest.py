@@ -8,6 +8,13 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 
 
+def no_temporaries(folder: Path) -> None:
+    """Nothing temporary left anywhere under ``folder``: rigfit's ``.NAME.rigfit-*`` files
+    (the Rust writers'), ``.tmp`` files (rigfit.cluster's report), other dot-files."""
+    left = [p for p in Path(folder).rglob("*") if p.name.startswith(".") or ".rigfit-" in p.name or p.suffix == ".tmp"]
+    assert not left, left
+
+
 def asset(rel: str) -> Path:
     root = Path(os.environ.get("RIGFIT_DATA", REPO.parent / "shared" / "data"))
     path = root / rel

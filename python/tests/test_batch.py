@@ -10,7 +10,7 @@ from pathlib import Path
 import batch_takes
 import pytest
 import rigfit
-from conftest import asset
+from conftest import asset, no_temporaries
 
 
 @pytest.fixture(scope="module")
@@ -30,11 +30,6 @@ def check_report(report: dict, attempts_of_failed: int = 1):
     errors = {e["name"]: e.get("error") for e in report["takes"]}
     assert "no-such-strokes.json" in errors["broken-strokes"]
     assert "broken_0000.ply" in errors["broken-frame"]
-
-
-def no_temporary_files(folder: Path):
-    leftovers = [p for p in folder.rglob("*") if p.name.startswith(".") or p.suffix == ".tmp"]
-    assert not leftovers, leftovers
 
 
 @pytest.fixture(scope="module")
@@ -58,7 +53,7 @@ def test_a_local_batch_runs_every_take_and_reports_the_broken_ones(local_run, ca
             "track.glb", "track-paper.json", "bunny.json"} <= set(written)
     assert sum(name.startswith("bunny/frame_") for name in written) == 3
     assert sum(name.startswith("bunny-pattern/frame_") for name in written) == 3
-    no_temporary_files(folder)
+    no_temporaries(folder)
 
 
 def test_each_take_alone_writes_the_same_files(local_run, inputs, tmp_path):
@@ -143,7 +138,7 @@ def test_the_batch_on_a_local_dask_cluster_matches_the_local_run(cluster, local_
     assert len(workers) == 2, workers
     assert json.loads((tmp_path / "report.json").read_text())["done"] == 10
     assert batch_takes.files(tmp_path / "out") == batch_takes.files(folder / "out")
-    no_temporary_files(tmp_path)
+    no_temporaries(tmp_path)
 
 
 def test_a_take_whose_worker_dies_is_run_again_once_then_reported(cluster, inputs, tmp_path):

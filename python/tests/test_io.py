@@ -7,7 +7,7 @@ import os
 import numpy as np
 import pytest
 import rigfit
-from conftest import asset
+from conftest import asset, no_temporaries
 
 CHARACTER = "assimp/BCN_Epileptic.glb"
 
@@ -20,11 +20,6 @@ def rig():
 def f32(a):
     """What a PLY's 32-bit float coordinates hold of a float64 array."""
     return a.astype(np.float32).astype(np.float64)
-
-
-def no_temporaries(folder):
-    left = [n for n in os.listdir(folder) if ".rigfit-" in n]
-    assert not left, left
 
 
 def test_a_mesh_round_trips_through_ply_and_obj(tmp_path, rig):
