@@ -319,7 +319,47 @@ fn demo_runs_with_nothing_downloaded() {
     assert!(o.status.success(), "{}", stderr(&o));
     let text = stdout(&o);
     assert!(text.contains("mean joint error"), "{text}");
-    for f in ["humanoid.glb", "strokes.json", "posed.glb", "report.json"] {
-        assert!(dir.path().join(f).exists(), "{f}");
+    let outputs = [
+        "humanoid.glb",
+        "strokes.json",
+        "posed.glb",
+        "report.json",
+        "demo.png",
+    ];
+    for f in outputs {
+        assert!(dir.path().join(f).is_file(), "{f}");
     }
+    let wrote = text
+        .lines()
+        .find(|l| l.starts_with("wrote "))
+        .expect("a wrote line");
+    assert!(outputs.iter().all(|f| wrote.contains(f)), "{wrote}");
+    // The picture: start and result side by side, so wider than tall; it decodes.
+    let picture = dir.path().join("demo.png");
+    assert!(
+        text.contains(&format!("picture: {} (start | result", picture.display())),
+        "{text}"
+    );
+    let (width, height, _) = png_size(&picture);
+    assert!(width > height, "{width} x {height}");
+    let image = rigfit_render::Image::from_png(&std::fs::read(&picture).expect("read"))
+        .expect("the picture decodes");
+    assert_eq!((image.width(), image.height()), (width, height));
+    // Each half (the start, the result) has something drawn in it.
+    for half in [0..width / 2, width / 2..width] {
+        let drawn = half
+            .flat_map(|x| (0..height).map(move |y| (x, y)))
+            .filter(|&(x, y)| image.pixel(x, y) != Some(rigfit_render::color::BACKGROUND))
+            .count();
+        assert!(drawn > 1000, "{drawn} pixels drawn in a half");
+    }
+    // Nothing is left beside the outputs (the temporaries were all renamed).
+    let mut names: Vec<String> = std::fs::read_dir(dir.path())
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let mut expected: Vec<String> = outputs.iter().map(|f| f.to_string()).collect();
+    expected.sort();
+    assert_eq!(names, expected);
 }

@@ -18,19 +18,6 @@ fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
 
-/// Width and height from a PNG's IHDR chunk, and the file's length.
-fn png_size(path: &Path) -> (u32, u32, usize) {
-    let bytes = std::fs::read(path).expect("the picture was written");
-    assert_eq!(
-        &bytes[..8],
-        b"\x89PNG\r\n\x1a\n",
-        "{}: PNG signature",
-        path.display()
-    );
-    let be = |b: &[u8]| u32::from_be_bytes([b[0], b[1], b[2], b[3]]);
-    (be(&bytes[16..20]), be(&bytes[20..24]), bytes.len())
-}
-
 /// The scene `rigfit render` draws for one file, rebuilt here to find where things project.
 fn scene_of(path: &Path) -> (Scene, Vec<Point3>) {
     let mut scene = Scene::new();

@@ -1,6 +1,8 @@
 //! `rigfit demo`: the main job on the built-in humanoid, with nothing downloaded. The
 //! humanoid is posed by its own wave animation, strokes are drawn through its limbs (with a
 //! little hand jitter), and rigfit poses the rest-pose humanoid from those strokes alone.
+//! Beside the files, `demo.png` shows the start pose and the result side by side (the picture
+//! of `rigfit pose --render`).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -13,7 +15,8 @@ use rigfit_formats::report::{pose_report, to_text};
 
 #[derive(Debug, clap::Args)]
 pub struct DemoArgs {
-    /// Where to write humanoid.glb (rest pose), strokes.json, posed.glb and report.json.
+    /// Where to write humanoid.glb (rest pose), strokes.json, posed.glb, report.json and
+    /// demo.png (the start pose and the result side by side, from the front).
     #[arg(short, long, default_value = "rigfit-demo")]
     output: PathBuf,
 }
@@ -68,7 +71,9 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         result.energy,
         seconds,
     );
-    // All four written to temporaries first, then renamed together.
+    let picture_path = args.output.join("demo.png");
+    let picture = super::pose::side_by_side(&rig, &case.strokes, &result, &demo_picture());
+    // All five written to temporaries first, then renamed together.
     let staged = vec![
         stage(&rest_path, &rigfit_formats::gltf::rig_to_glb(&rig))?,
         stage(
@@ -82,6 +87,10 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         stage(
             &args.output.join("report.json"),
             to_text(&report).as_bytes(),
+        )?,
+        stage(
+            &picture_path,
+            &super::render::png_bytes(&picture_path, &picture)?,
         )?,
     ];
     commit_all(staged)?;
@@ -105,8 +114,14 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         error * 100.0
     );
     println!(
-        "wrote {}/{{humanoid.glb, strokes.json, posed.glb, report.json}}",
+        "wrote {}/{{humanoid.glb, strokes.json, posed.glb, report.json, demo.png}}",
         args.output.display()
+    );
+    println!(
+        "picture: {} (start | result, {} x {})",
+        picture_path.display(),
+        picture.width(),
+        picture.height()
     );
     println!(
         "try: rigfit pose {} {} -o posed.glb --report report.json",
@@ -114,4 +129,13 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         args.output.join("strokes.json").display()
     );
     Ok(())
+}
+
+/// How `demo.png` is drawn: one front view per panel (the wave reads best from the front),
+/// 400-pixel tiles, so the two panels make a picture wider than tall.
+fn demo_picture() -> super::render::PictureArgs {
+    super::render::PictureArgs {
+        tile: 400,
+        views: vec![super::render::ViewArg::Front],
+    }
 }

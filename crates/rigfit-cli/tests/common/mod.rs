@@ -53,3 +53,19 @@ pub fn assert_bad_input(o: &Output, file: &Path) {
     );
     assert!(!err.contains("panicked"), "no panic: {err}");
 }
+
+/// Width and height from a PNG's IHDR chunk (after checking the signature and that IHDR
+/// comes first), and the file's length.
+pub fn png_size(path: &Path) -> (u32, u32, usize) {
+    let bytes = std::fs::read(path).expect("the picture was written");
+    assert!(bytes.len() > 24, "{}: too short for a PNG", path.display());
+    assert_eq!(
+        &bytes[..8],
+        b"\x89PNG\r\n\x1a\n",
+        "{}: PNG signature",
+        path.display()
+    );
+    assert_eq!(&bytes[12..16], b"IHDR", "{}: IHDR first", path.display());
+    let be = |b: &[u8]| u32::from_be_bytes([b[0], b[1], b[2], b[3]]);
+    (be(&bytes[16..20]), be(&bytes[20..24]), bytes.len())
+}
