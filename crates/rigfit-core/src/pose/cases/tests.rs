@@ -364,3 +364,51 @@ fn joint_errors_give_mean_max_and_worst() {
     let mean = mean_joint_error(skeleton, &moved, &rig.pose, &joints, 1.75);
     assert_eq!(mean, errors.mean);
 }
+
+#[test]
+fn far_poses_move_translating_joints_within_their_range() {
+    use crate::animation::{Animation, AnimationChannel, ChannelTarget, Interpolation};
+    use crate::skeleton::JointDof;
+    // A marker rig: a root and two markers, one translated by a clip, one free.
+    let joints = vec![
+        Joint::new("Root", None, Trs::default()),
+        Joint::new(
+            "Keyed",
+            Some(0),
+            Trs::from_translation(Vector3::new(0.0, 1.0, 0.0)),
+        ),
+        Joint::new(
+            "Loose",
+            Some(0),
+            Trs::from_translation(Vector3::new(0.5, 0.0, 0.0)),
+        ),
+    ];
+    let mut skeleton = Skeleton::new(joints).expect("tree");
+    skeleton.set_default_dofs();
+    skeleton.set_dof(2, JointDof::Free, None);
+    let clip = Animation {
+        name: "markers".into(),
+        channels: vec![AnimationChannel {
+            joint: 1,
+            target: ChannelTarget::Translation,
+            interpolation: Interpolation::Linear,
+            times: vec![0.0, 1.0],
+            values: vec![[0.0, 1.0, 0.0, 0.0], [0.4, 1.0, -0.2, 0.0]],
+        }],
+        frame_time: None,
+    };
+    let start = skeleton.rest_pose();
+    let options = FarPoseOptions::default();
+    let mut moved = false;
+    for seed in 0..10 {
+        let mut rng = StdRng::seed_from_u64(seed);
+        let pose = far_pose(&skeleton, &start, &[clip.clone()], 2.0, &options, &mut rng);
+        let keyed = pose.local[1].translation;
+        assert!((0.0..=0.4).contains(&keyed.x) && (-0.2..=0.0).contains(&keyed.z));
+        assert_eq!(keyed.y, 1.0);
+        let loose = pose.local[2].translation - start.local[2].translation;
+        assert!(loose.amax() <= options.translation * 2.0 + 1e-12);
+        moved |= keyed.x > 0.05 && loose.norm() > 0.01;
+    }
+    assert!(moved);
+}
