@@ -30,7 +30,8 @@ struct Args {
     markdown: bool,
 }
 
-fn parse_args() -> Result<Args, String> {
+/// The options, or `None` when `--help` was asked for.
+fn parse_args() -> Result<Option<Args>, String> {
     let mut args = Args {
         sweep: SweepOptions {
             cases: 6,
@@ -47,7 +48,7 @@ fn parse_args() -> Result<Args, String> {
             continue;
         }
         if flag == "-h" || flag == "--help" {
-            return Err(USAGE.into());
+            return Ok(None);
         }
         let value = it
             .next()
@@ -96,12 +97,16 @@ fn parse_args() -> Result<Args, String> {
             other => return Err(format!("unknown option '{other}'\n{USAGE}")),
         }
     }
-    Ok(args)
+    Ok(Some(args))
 }
 
 fn main() -> ExitCode {
     let args = match parse_args() {
-        Ok(args) => args,
+        Ok(Some(args)) => args,
+        Ok(None) => {
+            println!("{USAGE}");
+            return ExitCode::SUCCESS;
+        }
         Err(message) => {
             eprintln!("{message}");
             return ExitCode::from(2);

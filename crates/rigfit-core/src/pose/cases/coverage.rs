@@ -27,8 +27,9 @@ pub enum Coverage {
     /// Every chain at least [`EVERY_CHAIN_MIN_LENGTH`] long: fingers, face, tails, and chains
     /// of bones that carry no skin weight (helper bones) too.
     EveryChain,
-    /// Two or three of the limbs, chosen at random among those no other limb hangs below
-    /// (arms, legs, head, tail), or among all limbs when fewer than two are such.
+    /// Two or three of the limbs, chosen at random among those of two bones or more that no
+    /// other limb hangs below (arms, legs, head, tail), or among all limbs when fewer than
+    /// two are such.
     FewLimbs,
 }
 
@@ -167,7 +168,10 @@ pub(super) fn covered_chains(
             .collect(),
         Coverage::FewLimbs => {
             let lengths: Vec<f64> = limbs.iter().map(|c| chain_length(positions, c)).collect();
-            let mut pool = outer_limbs(skeleton, &limbs, &lengths, limb_length);
+            let mut pool: Vec<usize> = outer_limbs(skeleton, &limbs, &lengths, limb_length)
+                .into_iter()
+                .filter(|&c| limbs[c].len() >= 3)
+                .collect();
             if pool.len() < *FEW_LIMBS.start() {
                 pool = (0..limbs.len()).collect();
             }

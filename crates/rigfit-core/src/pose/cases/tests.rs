@@ -402,7 +402,14 @@ fn far_poses_move_translating_joints_within_their_range() {
     let mut moved = false;
     for seed in 0..10 {
         let mut rng = StdRng::seed_from_u64(seed);
-        let pose = far_pose(&skeleton, &start, &[clip.clone()], 2.0, &options, &mut rng);
+        let pose = far_pose(
+            &skeleton,
+            &start,
+            std::slice::from_ref(&clip),
+            2.0,
+            &options,
+            &mut rng,
+        );
         let keyed = pose.local[1].translation;
         assert!((0.0..=0.4).contains(&keyed.x) && (-0.2..=0.0).contains(&keyed.z));
         assert_eq!(keyed.y, 1.0);
