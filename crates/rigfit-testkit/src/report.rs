@@ -204,34 +204,47 @@ pub fn worst_table(cases: &[&Outcome]) -> String {
     out
 }
 
+/// How many of the worst held-out cases a failed check lists.
+const HELD_OUT_WORST_SHOWN: usize = 5;
+
 /// Checks each scenario's required success rate on the held-out half. The error names the
-/// scenarios short of it and holds both halves' totals.
+/// scenarios short of it and holds both halves' totals and the worst held-out cases.
 pub fn check_held_out(outcomes: &[Outcome], scenarios: &[Scenario]) -> Result<(), String> {
     let totals = per_half(outcomes);
     let mut short = Vec::new();
+    let mut short_scenarios = Vec::new();
     for &scenario in scenarios {
         let held_out = totals
             .iter()
             .find(|s| s.half == Half::HeldOut && s.scenario == scenario);
         match held_out {
             None => short.push(format!("{}: no held-out cases", scenario.name())),
-            Some(s) if s.success_rate() < scenario.required_success() => short.push(format!(
-                "{}: {:.1}% of {} held-out cases succeeded, {:.0}% required",
-                scenario.name(),
-                100.0 * s.success_rate(),
-                s.cases,
-                100.0 * scenario.required_success()
-            )),
+            Some(s) if s.success_rate() < scenario.required_success() => {
+                short_scenarios.push(scenario);
+                short.push(format!(
+                    "{}: {:.1}% of {} held-out cases succeeded, {:.0}% required",
+                    scenario.name(),
+                    100.0 * s.success_rate(),
+                    s.cases,
+                    100.0 * scenario.required_success()
+                ));
+            }
             Some(_) => {}
         }
     }
     if short.is_empty() {
         Ok(())
     } else {
+        let failed: Vec<Outcome> = outcomes
+            .iter()
+            .filter(|o| o.half == Half::HeldOut && short_scenarios.contains(&o.scenario))
+            .cloned()
+            .collect();
         Err(format!(
-            "{}\n\nboth halves:\n{}",
+            "{}\n\nboth halves:\n{}\nworst held-out cases:\n{}",
             short.join("\n"),
-            text_table(&totals)
+            text_table(&totals),
+            worst_table(&worst_cases(&failed, HELD_OUT_WORST_SHOWN))
         ))
     }
 }
