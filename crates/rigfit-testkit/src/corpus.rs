@@ -16,7 +16,11 @@ pub const MANIFEST_ENV: &str = "RIGFIT_CORPUS_MANIFEST";
 
 /// The workspace root (two folders above this crate).
 fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+    let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    crate_dir
+        .ancestors()
+        .nth(2)
+        .map_or_else(|| crate_dir.join("../.."), Path::to_path_buf)
 }
 
 /// Which half of the corpus a rig belongs to: the solver is tuned on one and judged on the
