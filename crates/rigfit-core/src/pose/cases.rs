@@ -1,16 +1,28 @@
-//! Ground-truth posing cases from real rigs: pose the rig (a frame of its own animation),
-//! draw one polyline per limb chain through the true joint positions, resample densely,
-//! add Gaussian noise, shuffle stroke order and direction, optionally drop limbs and add
-//! stray strokes. Used by tests and benchmarks.
+//! Ground-truth posing cases from real rigs: pose the rig (a frame of its own animation, or
+//! a random pose far from the start, [`targets`]), draw one polyline per chain through the
+//! true joint positions (the limbs, every chain, or a few limbs: [`Coverage`]), resample
+//! densely, add Gaussian noise, optionally flatten each stroke in depth as seen from one
+//! view, shuffle stroke order and direction, optionally drop limbs and add stray strokes.
+//! Used by tests, benchmarks, the `demo` command and rigfit-testkit's corpus sweep.
+
+mod coverage;
+mod drawing;
+mod targets;
 
 use rand::Rng;
 use rand::seq::SliceRandom;
-use rand_distr::{Distribution, Normal};
+use rand_distr::Normal;
 
-use super::beautify::resample;
 use crate::math::{Point3, Vector3};
-use crate::skeleton::{JointKind, Pose, Skeleton};
+use crate::skeleton::{Pose, Skeleton};
 use crate::strokes::Stroke;
+
+pub use coverage::{
+    Coverage, EVERY_CHAIN_MIN_LENGTH, FEW_LIMBS, chain_deforms, chain_length, deforming_joints,
+    limb_chains,
+};
+pub use drawing::{desktop_view, flatten_stroke};
+pub use targets::{FarPoseOptions, clip_pose, far_pose, limb_roots, mirror_pairs, mirror_pose};
 
 /// How to draw a case.
 #[derive(Clone, Debug)]
@@ -19,12 +31,19 @@ pub struct CaseOptions {
     pub noise: f64,
     /// Spacing of the drawn samples (dense, like a controller), fraction of the height.
     pub sample_spacing: f64,
-    /// Chains shorter than this (fraction of height) are not drawn.
+    /// The shortest limb, as a fraction of the height: [`Coverage::Limbs`] draws no shorter
+    /// chain, and only chains this long count as limbs to drop.
     pub min_chain_length: f64,
-    /// How many limb chains to leave undrawn.
+    /// How many limbs to leave undrawn.
     pub drop_limbs: usize,
     /// How many stray strokes to add.
     pub stray_strokes: usize,
+    /// Which chains are drawn.
+    pub coverage: Coverage,
+    /// The direction a user looks along while drawing: each stroke is flattened onto the
+    /// plane through its mean point perpendicular to it (`None`: strokes keep their depth,
+    /// as drawn in VR).
+    pub flatten: Option<Vector3>,
 }
 
 impl Default for CaseOptions {
@@ -35,6 +54,8 @@ impl Default for CaseOptions {
             min_chain_length: 0.1,
             drop_limbs: 0,
             stray_strokes: 0,
+            coverage: Coverage::Limbs,
+            flatten: None,
         }
     }
 }
@@ -43,7 +64,8 @@ impl Default for CaseOptions {
 #[derive(Clone, Debug)]
 pub struct Case {
     pub strokes: Vec<Stroke>,
-    /// Joints on drawn chains: the ones whose error is measured.
+    /// Joints on drawn chains (each chain's joints, the one it attaches at included): the
+    /// ones whose error is measured.
     pub drawn_joints: Vec<usize>,
     /// The chains left undrawn (joint sequences; the first joint is where they attach).
     pub dropped_chains: Vec<Vec<usize>>,
@@ -51,56 +73,8 @@ pub struct Case {
     pub stroke_chains: Vec<Vec<usize>>,
 }
 
-/// The limb chains of a skeleton: from the character's root or a branching joint, through
-/// joints with one child, to a leaf or the next branching joint. Helpers above the root and
-/// zero-length links are skipped as the posing model skips them.
-pub fn limb_chains(skeleton: &Skeleton) -> Vec<Vec<usize>> {
-    let root = skeleton.skin_root();
-    let included = |j: usize| skeleton.joint(j).kind != JointKind::Helper;
-    let children = |j: usize| -> Vec<usize> {
-        skeleton
-            .children(j)
-            .iter()
-            .copied()
-            .filter(|&c| included(c))
-            .collect()
-    };
-    let starts: Vec<usize> = (0..skeleton.len())
-        .filter(|&j| {
-            let under = root.is_none_or(|r| skeleton.is_ancestor_or_self(r, j));
-            under
-                && (Some(j) == root
-                    || children(j).len() > 1
-                    || (skeleton.joint(j).parent.is_none() && root.is_none()))
-        })
-        .collect();
-    let mut chains = Vec::new();
-    for s in starts {
-        for c in children(s) {
-            let mut chain = vec![s, c];
-            let mut cur = c;
-            loop {
-                let next = children(cur);
-                if next.len() != 1 {
-                    break;
-                }
-                cur = next[0];
-                chain.push(cur);
-            }
-            chains.push(chain);
-        }
-    }
-    chains
-}
-
-fn chain_length(points: &[Point3], chain: &[usize]) -> f64 {
-    chain
-        .windows(2)
-        .map(|w| (points[w[1]] - points[w[0]]).norm())
-        .sum()
-}
-
-/// Draws a case for the skeleton in `truth` (the pose the solver should recover).
+/// Draws a case for the skeleton in `truth` (the pose the solver should recover), every
+/// joint counting as deforming ([`draw_case`] with a rig's own [`deforming_joints`]).
 pub fn make_case(
     skeleton: &Skeleton,
     truth: &Pose,
@@ -108,51 +82,61 @@ pub fn make_case(
     options: &CaseOptions,
     rng: &mut impl Rng,
 ) -> Case {
+    draw_case(
+        skeleton,
+        &vec![true; skeleton.len()],
+        truth,
+        height,
+        options,
+        rng,
+    )
+}
+
+/// Draws a case for the skeleton in `truth`; `deforming` tells which joints carry skin
+/// weight (the limbs of [`Coverage::Limbs`] and [`Coverage::FewLimbs`] are chains that do).
+pub fn draw_case(
+    skeleton: &Skeleton,
+    deforming: &[bool],
+    truth: &Pose,
+    height: f64,
+    options: &CaseOptions,
+    rng: &mut impl Rng,
+) -> Case {
     let positions = skeleton.joint_positions(truth);
-    let mut chains: Vec<Vec<usize>> = limb_chains(skeleton)
-        .into_iter()
-        .filter(|c| chain_length(&positions, c) >= options.min_chain_length * height)
-        .collect();
-    // Drop limbs: chains that end at a leaf, chosen at random.
-    let mut dropped_chains = Vec::new();
-    for _ in 0..options.drop_limbs {
-        let leaves: Vec<usize> = (0..chains.len())
-            .filter(|&c| {
-                skeleton
-                    .children(*chains[c].last().expect("chains have joints"))
-                    .is_empty()
-            })
-            .collect();
-        if leaves.len() <= 1 {
-            break;
-        }
-        let pick = leaves[rng.random_range(0..leaves.len())];
-        dropped_chains.push(chains.remove(pick));
-    }
+    let limb_length = options.min_chain_length * height;
+    let mut chains = coverage::covered_chains(
+        skeleton,
+        deforming,
+        &positions,
+        options.coverage,
+        limb_length,
+        height,
+        rng,
+    );
+    let dropped_chains = coverage::drop_limbs(
+        skeleton,
+        &positions,
+        &mut chains,
+        options.coverage,
+        limb_length,
+        options.drop_limbs,
+        rng,
+    );
     let normal = Normal::new(0.0, (options.noise * height).max(1e-300)).expect("valid deviation");
     let mut drawn_joints: Vec<usize> = chains.iter().flatten().copied().collect();
     drawn_joints.sort_unstable();
     drawn_joints.dedup();
-    let mut strokes: Vec<(Stroke, Vec<usize>)> = chains
+    let spacing = options.sample_spacing * height;
+    let mut strokes: Vec<(Vec<Point3>, Vec<usize>)> = chains
         .iter()
         .map(|chain| {
-            let line: Vec<Point3> = chain.iter().map(|&j| positions[j]).collect();
-            let mut points = resample(&line, options.sample_spacing * height);
-            for p in &mut points {
-                *p += Vector3::new(normal.sample(rng), normal.sample(rng), normal.sample(rng));
-            }
+            let mut points = drawing::chain_stroke(&positions, chain, spacing, &normal, rng);
             let mut chain = chain.clone();
             if rng.random_bool(0.5) {
                 points.reverse();
                 chain.reverse();
             }
-            (
-                Stroke {
-                    points,
-                    bones: None,
-                },
-                chain,
-            )
+            (points, chain)
         })
         .collect();
     // Stray strokes: short wobbly lines near the character.
@@ -163,46 +147,70 @@ pub fn make_case(
         .iter()
         .fold(Vector3::repeat(f64::NEG_INFINITY), |a, p| a.sup(&p.coords));
     for _ in 0..options.stray_strokes {
-        let margin = 0.3 * height;
-        let start = Point3::from(Vector3::from_fn(|i, _| {
-            rng.random_range(lo[i] - margin..hi[i] + margin)
-        }));
-        let dir = Vector3::new(normal.sample(rng), normal.sample(rng), normal.sample(rng))
-            .try_normalize(1e-12)
-            .unwrap_or_else(Vector3::x);
-        let bend = Vector3::new(
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-        );
-        let length = 0.25 * height;
-        let line: Vec<Point3> = (0..6)
-            .map(|i| {
-                let t = i as f64 / 5.0;
-                start
-                    + dir * (length * t)
-                    + bend * (0.1 * height * (t * std::f64::consts::PI).sin())
-            })
-            .collect();
-        let mut points = resample(&line, options.sample_spacing * height);
-        for p in &mut points {
-            *p += Vector3::new(normal.sample(rng), normal.sample(rng), normal.sample(rng));
+        let points = drawing::stray_stroke((lo, hi), height, spacing, &normal, rng);
+        strokes.push((points, Vec::new()));
+    }
+    if let Some(view) = &options.flatten {
+        for (points, _) in &mut strokes {
+            flatten_stroke(points, view);
         }
-        strokes.push((
-            Stroke {
-                points,
-                bones: None,
-            },
-            Vec::new(),
-        ));
     }
     strokes.shuffle(rng);
-    let (strokes, stroke_chains) = strokes.into_iter().unzip();
+    let (strokes, stroke_chains) = strokes
+        .into_iter()
+        .map(|(points, chain)| {
+            let stroke = Stroke {
+                points,
+                bones: None,
+            };
+            (stroke, chain)
+        })
+        .unzip();
     Case {
         strokes,
         drawn_joints,
         dropped_chains,
         stroke_chains,
+    }
+}
+
+/// How far solved joints are from the truth, as fractions of the height.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JointErrors {
+    /// The mean distance over the joints (0 for none).
+    pub mean: f64,
+    /// The largest distance (0 for none).
+    pub max: f64,
+    /// The joint at the largest distance.
+    pub worst: Option<usize>,
+}
+
+/// The distances between solved and true joint positions over `joints`, as fractions of
+/// `height`.
+pub fn joint_errors(
+    skeleton: &Skeleton,
+    solved: &Pose,
+    truth: &Pose,
+    joints: &[usize],
+    height: f64,
+) -> JointErrors {
+    let a = skeleton.joint_positions(solved);
+    let b = skeleton.joint_positions(truth);
+    let mut sum = 0.0;
+    let mut max = 0.0;
+    let mut worst = None;
+    for &j in joints {
+        let d = (a[j] - b[j]).norm();
+        sum += d;
+        if worst.is_none() || d > max {
+            max = d;
+            worst = Some(j);
+        }
+    }
+    JointErrors {
+        mean: sum / joints.len().max(1) as f64 / height,
+        max: max / height,
+        worst,
     }
 }
 
@@ -215,9 +223,7 @@ pub fn mean_joint_error(
     joints: &[usize],
     height: f64,
 ) -> f64 {
-    let a = skeleton.joint_positions(solved);
-    let b = skeleton.joint_positions(truth);
-    joints.iter().map(|&j| (a[j] - b[j]).norm()).sum::<f64>() / joints.len().max(1) as f64 / height
+    joint_errors(skeleton, solved, truth, joints, height).mean
 }
 
 /// How far an undrawn chain moved relative to where it attaches: the largest change, between
@@ -249,3 +255,6 @@ pub fn limb_motion(
         .fold(0.0, f64::max)
         / height
 }
+
+#[cfg(test)]
+mod tests;

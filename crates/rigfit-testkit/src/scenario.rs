@@ -1,0 +1,198 @@
+//! The sweep's scenarios (which chains are drawn, how, and toward which poses) and the
+//! deterministic generation of a scenario's case on a corpus rig.
+
+use rand::SeedableRng;
+use rand::rngs::StdRng;
+use rigfit_core::Pose;
+use rigfit_core::pose::cases::{
+    Case, CaseOptions, Coverage, FarPoseOptions, clip_pose, desktop_view, draw_case, far_pose,
+    mirror_pose,
+};
+
+use crate::corpus::CorpusRig;
+
+/// How far from horizontal the view of a flattened case may tilt (radians).
+const DESKTOP_ELEVATION: f64 = 0.35;
+
+/// A way of drawing cases. Noise is a fraction of the height.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Scenario {
+    /// Every chain at least 2% of the height (fingers, face, tails, helper bones), 1% noise,
+    /// one stray stroke, one limb dropped; clip, far and mirrored targets in turn.
+    EveryChain,
+    /// The limbs (chains at least 10% of the height that carry skin weight), 1% noise;
+    /// clip, far and mirrored targets in turn.
+    LimbsOnly,
+    /// Two or three limbs, 1% noise; clip, far and mirrored targets in turn.
+    FewLimbs,
+    /// Every chain, 1% noise, each stroke flattened in depth as seen from a random
+    /// horizontal-ish view (a desktop user drawing); clip, far and mirrored targets in turn.
+    Flattened,
+    /// The limbs, 2% noise, far random targets only.
+    Far,
+}
+
+/// Where a case's true pose came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TargetKind {
+    /// A random time of one of the rig's clips.
+    Clip,
+    /// A random pose far from the start ([`far_pose`]).
+    Far,
+    /// A random mirror-symmetric pose ([`mirror_pose`]).
+    Mirror,
+}
+
+impl TargetKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            TargetKind::Clip => "clip",
+            TargetKind::Far => "far",
+            TargetKind::Mirror => "mirror",
+        }
+    }
+}
+
+impl Scenario {
+    pub const ALL: [Scenario; 5] = [
+        Scenario::EveryChain,
+        Scenario::LimbsOnly,
+        Scenario::FewLimbs,
+        Scenario::Flattened,
+        Scenario::Far,
+    ];
+
+    /// The scenario's name on the command line and in tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Scenario::EveryChain => "every-chain",
+            Scenario::LimbsOnly => "limbs-only",
+            Scenario::FewLimbs => "few-limbs",
+            Scenario::Flattened => "flattened",
+            Scenario::Far => "far",
+        }
+    }
+
+    /// The scenario named `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+
+    /// The share of successful cases required on the held-out half. The issue sets
+    /// every-chain (95%) and limbs-only (98%); the others are this harness's proposal.
+    pub fn required_success(self) -> f64 {
+        match self {
+            Scenario::EveryChain => 0.95,
+            Scenario::LimbsOnly => 0.98,
+            Scenario::FewLimbs => 0.95,
+            Scenario::Flattened => 0.90,
+            Scenario::Far => 0.90,
+        }
+    }
+
+    /// How the scenario draws its strokes (the view of a flattened case is set per case).
+    pub fn case_options(self) -> CaseOptions {
+        let every_chain = CaseOptions {
+            coverage: Coverage::EveryChain,
+            ..CaseOptions::default()
+        };
+        match self {
+            Scenario::EveryChain => CaseOptions {
+                drop_limbs: 1,
+                stray_strokes: 1,
+                ..every_chain
+            },
+            Scenario::LimbsOnly => CaseOptions::default(),
+            Scenario::FewLimbs => CaseOptions {
+                coverage: Coverage::FewLimbs,
+                ..CaseOptions::default()
+            },
+            Scenario::Flattened => every_chain,
+            Scenario::Far => CaseOptions {
+                noise: 0.02,
+                ..CaseOptions::default()
+            },
+        }
+    }
+
+    /// The kinds of target the scenario's cases take in turn (case `i` the `i % len`th).
+    pub fn targets(self) -> &'static [TargetKind] {
+        match self {
+            Scenario::Far => &[TargetKind::Far],
+            _ => &[TargetKind::Clip, TargetKind::Far, TargetKind::Mirror],
+        }
+    }
+}
+
+/// A generated case with the pose it was drawn from.
+#[derive(Clone, Debug)]
+pub struct GeneratedCase {
+    /// The kind of target used: a clip falls back to a far pose when the rig has no clip
+    /// that lasts, a mirrored pose when it has no left-right pairs.
+    pub target: TargetKind,
+    pub truth: Pose,
+    pub case: Case,
+    pub options: CaseOptions,
+}
+
+/// The seed of case `index` of `scenario` on rig `rig_id` (FNV-1a of the three, stable
+/// across runs, platforms and Rust versions).
+pub fn case_seed(rig_id: &str, scenario: Scenario, index: usize) -> u64 {
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    let bytes = rig_id
+        .bytes()
+        .chain([0])
+        .chain(scenario.name().bytes())
+        .chain([0])
+        .chain((index as u64).to_le_bytes());
+    for b in bytes {
+        hash ^= u64::from(b);
+        hash = hash.wrapping_mul(0x0100_0000_01b3);
+    }
+    hash
+}
+
+/// Case `index` of `scenario` on `rig`: the same for the same three every time.
+pub fn generate_case(rig: &CorpusRig, scenario: Scenario, index: usize) -> GeneratedCase {
+    let mut rng = StdRng::seed_from_u64(case_seed(&rig.entry.id, scenario, index));
+    let skeleton = &rig.rig.skeleton;
+    let animations = &rig.rig.animations;
+    let far = FarPoseOptions {
+        up: rig.up,
+        ..FarPoseOptions::default()
+    };
+    let targets = scenario.targets();
+    let planned = targets[index % targets.len()];
+    let chosen = match planned {
+        TargetKind::Clip => {
+            clip_pose(animations, &rig.start, &mut rng).map(|p| (TargetKind::Clip, p))
+        }
+        TargetKind::Mirror => {
+            mirror_pose(skeleton, &rig.start, animations, rig.height, &far, &mut rng)
+                .map(|p| (TargetKind::Mirror, p))
+        }
+        TargetKind::Far => None,
+    };
+    let (target, truth) = chosen.unwrap_or_else(|| {
+        let pose = far_pose(skeleton, &rig.start, animations, rig.height, &far, &mut rng);
+        (TargetKind::Far, pose)
+    });
+    let mut options = scenario.case_options();
+    if scenario == Scenario::Flattened {
+        options.flatten = Some(desktop_view(&rig.up, DESKTOP_ELEVATION, &mut rng));
+    }
+    let case = draw_case(
+        skeleton,
+        &rig.deforming,
+        &truth,
+        rig.height,
+        &options,
+        &mut rng,
+    );
+    GeneratedCase {
+        target,
+        truth,
+        case,
+        options,
+    }
+}

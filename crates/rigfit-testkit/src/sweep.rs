@@ -1,0 +1,209 @@
+//! The corpus sweep: every chosen rig's cases of every chosen scenario, solved, with what
+//! each gave.
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+use rigfit_core::pose::cases::{joint_errors, limb_motion};
+use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
+
+use crate::corpus::{Corpus, CorpusError, CorpusRig, Half, RigKind};
+use crate::scenario::{Scenario, TargetKind, generate_case};
+
+/// A case succeeds when its mean drawn-joint error is at most this fraction of the height...
+pub const SUCCESS_MEAN_ERROR: f64 = 0.03;
+/// ...and no drawn joint is further than this fraction of the height from the truth.
+pub const SUCCESS_MAX_ERROR: f64 = 0.10;
+
+/// What to sweep.
+#[derive(Clone, Debug)]
+pub struct SweepOptions {
+    /// Only rigs of this half (all when `None`).
+    pub half: Option<Half>,
+    /// Only these rig ids (all when empty).
+    pub rigs: Vec<String>,
+    pub scenarios: Vec<Scenario>,
+    /// Cases per rig and scenario, indices `0..cases`.
+    pub cases: usize,
+    /// Only this case index (to reproduce one case of a table).
+    pub only_case: Option<usize>,
+    pub pose: PoseOptions,
+    /// Solver threads (rayon's default, one per core, when `None`).
+    pub threads: Option<usize>,
+}
+
+impl Default for SweepOptions {
+    fn default() -> Self {
+        Self {
+            half: None,
+            rigs: Vec::new(),
+            scenarios: Scenario::ALL.to_vec(),
+            cases: 4,
+            only_case: None,
+            pose: PoseOptions::default(),
+            threads: None,
+        }
+    }
+}
+
+/// What one case gave. Errors are fractions of the height. The drawn joints are every
+/// joint of a drawn chain, the joint it attaches at included (a stroke runs through it).
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    pub rig: String,
+    pub half: Half,
+    pub kind: RigKind,
+    pub scenario: Scenario,
+    pub case: usize,
+    pub target: TargetKind,
+    pub strokes: usize,
+    pub drawn_joints: usize,
+    /// Mean distance of the drawn joints from the truth (infinite when the solve failed).
+    pub mean_error: f64,
+    /// The largest distance of a drawn joint from the truth.
+    pub max_error: f64,
+    /// The drawn joint furthest from the truth.
+    pub worst_joint: String,
+    /// How far dropped limbs moved from the start pose relative to where they attach.
+    pub undrawn_motion: f64,
+    pub seconds: f64,
+    /// The solver's error when it refused the case.
+    pub failure: Option<String>,
+}
+
+impl Outcome {
+    /// Mean drawn-joint error at most 3% of the height and no drawn joint over 10%.
+    pub fn success(&self) -> bool {
+        self.failure.is_none()
+            && self.mean_error <= SUCCESS_MEAN_ERROR
+            && self.max_error <= SUCCESS_MAX_ERROR
+    }
+
+    /// How far past the bounds the case is (at most 1 for a success): the larger of its
+    /// errors over their bounds.
+    pub fn badness(&self) -> f64 {
+        if self.failure.is_some() {
+            return f64::INFINITY;
+        }
+        (self.mean_error / SUCCESS_MEAN_ERROR).max(self.max_error / SUCCESS_MAX_ERROR)
+    }
+}
+
+/// Generates case `index` of `scenario` on `rig` and solves it with `options`.
+pub fn solve_case(
+    rig: &CorpusRig,
+    scenario: Scenario,
+    index: usize,
+    options: &PoseOptions,
+) -> Outcome {
+    let generated = generate_case(rig, scenario, index);
+    let skeleton = &rig.rig.skeleton;
+    let problem = PoseProblem {
+        skeleton,
+        start: &rig.start,
+        strokes: &generated.case.strokes,
+        movable: None,
+        height: rig.height,
+    };
+    let began = Instant::now();
+    let result = solve_pose(&problem, options);
+    let seconds = began.elapsed().as_secs_f64();
+    let mut outcome = Outcome {
+        rig: rig.entry.id.clone(),
+        half: rig.entry.half,
+        kind: rig.entry.kind,
+        scenario,
+        case: index,
+        target: generated.target,
+        strokes: generated.case.strokes.len(),
+        drawn_joints: generated.case.drawn_joints.len(),
+        mean_error: f64::INFINITY,
+        max_error: f64::INFINITY,
+        worst_joint: String::new(),
+        undrawn_motion: 0.0,
+        seconds,
+        failure: None,
+    };
+    match result {
+        Ok(result) => {
+            let errors = joint_errors(
+                skeleton,
+                &result.pose,
+                &generated.truth,
+                &generated.case.drawn_joints,
+                rig.height,
+            );
+            outcome.mean_error = errors.mean;
+            outcome.max_error = errors.max;
+            outcome.worst_joint = errors
+                .worst
+                .map(|j| skeleton.joint(j).name.clone())
+                .unwrap_or_default();
+            outcome.undrawn_motion = generated
+                .case
+                .dropped_chains
+                .iter()
+                .map(|chain| limb_motion(skeleton, &rig.start, &result.pose, chain, rig.height))
+                .fold(0.0, f64::max);
+        }
+        Err(e) => outcome.failure = Some(e.to_string()),
+    }
+    outcome
+}
+
+/// The manifest's rigs that `options` chooses, in manifest order. Fails naming an id that
+/// is not listed.
+pub fn chosen_rigs<'a>(
+    corpus: &'a Corpus,
+    options: &SweepOptions,
+) -> Result<Vec<&'a crate::corpus::RigEntry>, CorpusError> {
+    if let Some(unknown) = options.rigs.iter().find(|id| corpus.entry(id).is_none()) {
+        return Err(CorpusError::Rig {
+            id: unknown.clone(),
+            problem: format!("not listed in {}", corpus.manifest.display()),
+        });
+    }
+    Ok(corpus
+        .rigs
+        .iter()
+        .filter(|r| options.half.is_none_or(|h| r.half == h))
+        .filter(|r| options.rigs.is_empty() || options.rigs.contains(&r.id))
+        .collect())
+}
+
+/// Sweeps the chosen rigs (read one at a time) and scenarios; cases run in parallel.
+/// `progress` is called after each rig with its outcomes.
+pub fn sweep(
+    corpus: &Corpus,
+    options: &SweepOptions,
+    mut progress: impl FnMut(&CorpusRig, &[Outcome]),
+) -> Result<Vec<Outcome>, CorpusError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(options.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| CorpusError::Rig {
+            id: "(all)".into(),
+            problem: format!("no thread pool: {e}"),
+        })?;
+    let indices: Vec<usize> = match options.only_case {
+        Some(i) => vec![i],
+        None => (0..options.cases).collect(),
+    };
+    let mut outcomes = Vec::new();
+    for entry in chosen_rigs(corpus, options)? {
+        let rig = corpus.read_rig(entry)?;
+        let jobs: Vec<(Scenario, usize)> = options
+            .scenarios
+            .iter()
+            .flat_map(|&s| indices.iter().map(move |&i| (s, i)))
+            .collect();
+        let rig_outcomes: Vec<Outcome> = pool.install(|| {
+            jobs.par_iter()
+                .map(|&(scenario, index)| solve_case(&rig, scenario, index, &options.pose))
+                .collect()
+        });
+        progress(&rig, &rig_outcomes);
+        outcomes.extend(rig_outcomes);
+    }
+    Ok(outcomes)
+}
