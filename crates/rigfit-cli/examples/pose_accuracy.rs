@@ -36,8 +36,29 @@ fn main() {
                 ..PoseOptions::default()
             },
         ),
-        ("rigfit (+ chain step)", PoseOptions::default()),
+        (
+            "+ chain step (greedy, by distance)",
+            PoseOptions {
+                global_assignment: false,
+                shape_matching: false,
+                ..PoseOptions::default()
+            },
+        ),
+        (
+            "+ global assignment",
+            PoseOptions {
+                shape_matching: false,
+                ..PoseOptions::default()
+            },
+        ),
+        ("rigfit (+ shape matching)", PoseOptions::default()),
     ];
+    // ONLY=text keeps the methods whose name contains it.
+    let only = std::env::var("ONLY").unwrap_or_default();
+    let methods: Vec<_> = methods
+        .into_iter()
+        .filter(|(name, _)| name.contains(only.as_str()))
+        .collect();
     let scenarios: Vec<(&str, CaseOptions)> = vec![
         ("1% noise", CaseOptions::default()),
         (

@@ -5,7 +5,7 @@
 //! ```text
 //! cargo run --release -p rigfit-testkit --example pose_corpus -- \
 //!     [--half tune|held-out|all] [--scenario NAME|all] [--cases N] [--case I] [--rig ID[,ID]]
-//!     [--method default|paper] [--threads N] [--worst K] [--markdown]
+//!     [--method default|global|greedy|paper] [--threads N] [--worst K] [--markdown]
 //! ```
 //! Scenarios: every-chain, limbs-only, few-limbs, flattened, far. The corpus is
 //! `RIGFIT_CORPUS_MANIFEST` (default `data/corpus.json`) over the folder `RIGFIT_CORPUS`.
@@ -20,7 +20,7 @@ use rigfit_testkit::report::{
 use rigfit_testkit::{Corpus, Half, Scenario, SweepOptions, sweep};
 
 const USAGE: &str = "usage: pose_corpus [--half tune|held-out|all] [--scenario NAME|all] \
-[--cases N] [--case I] [--rig ID[,ID...]] [--method default|paper] [--threads N] [--worst K] \
+[--cases N] [--case I] [--rig ID[,ID...]] [--method default|global|greedy|paper] [--threads N] [--worst K] \
 [--markdown]";
 
 struct Args {
@@ -91,7 +91,28 @@ fn parse_args() -> Result<Option<Args>, String> {
                 (args.sweep.pose, args.method) = match value.as_str() {
                     "default" => (PoseOptions::default(), "default"),
                     "paper" => (PoseOptions::paper(), "paper"),
-                    other => return Err(format!("--method: '{other}' is not default or paper")),
+                    // The ablation steps of BENCHMARKS.md: the chain step as it was (greedy,
+                    // by distance at the current pose), then with the global assignment.
+                    "greedy" => (
+                        PoseOptions {
+                            global_assignment: false,
+                            shape_matching: false,
+                            ..PoseOptions::default()
+                        },
+                        "greedy",
+                    ),
+                    "global" => (
+                        PoseOptions {
+                            shape_matching: false,
+                            ..PoseOptions::default()
+                        },
+                        "global",
+                    ),
+                    other => {
+                        return Err(format!(
+                            "--method: '{other}' is not default, global, greedy or paper"
+                        ));
+                    }
                 }
             }
             other => return Err(format!("unknown option '{other}'\n{USAGE}")),

@@ -258,7 +258,7 @@ pub struct CorpusRig {
     pub start: Pose,
     pub up: Vector3,
     /// The extent of the character along `up` in the start pose (the largest extent when
-    /// that is flat): errors are fractions of it.
+    /// that is under a quarter of it): errors are fractions of it.
     pub height: f64,
     pub deforming: Vec<bool>,
 }
@@ -311,8 +311,9 @@ pub fn parse_up(text: &str) -> Option<Vector3> {
 }
 
 /// The extent of the character along `up` in `pose`, or its largest extent when that is
-/// flat.
+/// flat (under a quarter of it: a hand or a robot lying in the ground plane).
 fn height_along(rig: &Rig, pose: &Pose, up: &Vector3) -> f64 {
+    let largest = rig.bounds(pose).map_or(0.0, |b| b.extent().max());
     let points = rig.extent_points(pose);
     let (lo, hi) = points
         .iter()
@@ -320,9 +321,9 @@ fn height_along(rig: &Rig, pose: &Pose, up: &Vector3) -> f64 {
             let h = p.coords.dot(up);
             (lo.min(h), hi.max(h))
         });
-    if hi - lo > 1e-9 {
+    if hi - lo > 0.25 * largest {
         hi - lo
     } else {
-        rig.bounds(pose).map_or(0.0, |b| b.extent().max())
+        largest
     }
 }

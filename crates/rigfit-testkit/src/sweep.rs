@@ -89,6 +89,35 @@ impl Outcome {
     }
 }
 
+/// A marker rig's strokes, each pinned to the markers it was drawn through (the solver
+/// refuses unpinned strokes on markers: nothing says which marker a stroke draws).
+fn pinned_to_markers(
+    skeleton: &rigfit_core::Skeleton,
+    case: &rigfit_core::pose::cases::Case,
+) -> Vec<rigfit_core::Stroke> {
+    case.strokes
+        .iter()
+        .zip(&case.stroke_chains)
+        .map(|(stroke, chain)| {
+            let mut pinned = stroke.clone();
+            if !chain.is_empty() {
+                let parent = |j: usize| skeleton.joint(j).parent;
+                // Every joint of the chain but the one it hangs from.
+                let names = chain
+                    .iter()
+                    .filter(|&&j| {
+                        !chain.iter().any(|&k| parent(k) == Some(j))
+                            || parent(j).is_some_and(|p| chain.contains(&p))
+                    })
+                    .map(|&j| skeleton.joint(j).name.clone())
+                    .collect();
+                pinned.bones = Some(names);
+            }
+            pinned
+        })
+        .collect()
+}
+
 /// Generates case `index` of `scenario` on `rig` and solves it with `options`.
 pub fn solve_case(
     rig: &CorpusRig,
@@ -98,10 +127,15 @@ pub fn solve_case(
 ) -> Outcome {
     let generated = generate_case(rig, scenario, index);
     let skeleton = &rig.rig.skeleton;
+    let strokes = if rig.entry.kind == RigKind::Marker {
+        pinned_to_markers(skeleton, &generated.case)
+    } else {
+        generated.case.strokes.clone()
+    };
     let problem = PoseProblem {
         skeleton,
         start: &rig.start,
-        strokes: &generated.case.strokes,
+        strokes: &strokes,
         movable: None,
         height: rig.height,
     };

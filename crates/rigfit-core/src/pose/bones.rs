@@ -5,7 +5,7 @@ use std::ops::Range;
 
 use crate::kinematics::ForwardKinematics;
 use crate::math::{Point3, transform_point};
-use crate::skeleton::{JointKind, Pose, Skeleton};
+use crate::skeleton::{JointDof, JointKind, Pose, Skeleton};
 
 /// The most points sampled along one bone: a bone far longer than the character is tall
 /// (a unit or export mistake) gets points further apart instead of an unbounded number.
@@ -19,6 +19,9 @@ pub struct Bone {
     /// The joint at the bone's tip.
     pub child: usize,
     pub length: f64,
+    /// The tip joint translates (a marker, or a joint whose animation moves it): the bone's
+    /// points ride on the tip, where the joint's translation moves them.
+    pub tip_translates: bool,
 }
 
 /// A point rigidly attached to a joint.
@@ -28,6 +31,8 @@ pub struct ModelPoint {
     pub joint: usize,
     /// The point in the joint's local frame.
     pub local: Point3,
+    /// Where the point lies along its bone, from the bone's joint (0) to its tip (1).
+    pub along: f64,
 }
 
 /// Bones of a skeleton with points sampled along them (`V` of Cannavò et al. eq. 1).
@@ -80,25 +85,47 @@ impl BoneModel {
             }
             // `as usize` saturates (and maps NaN to 0): the count stays within 1..=MAX.
             let n = ((length / spacing).round() as usize).clamp(1, MAX_POINTS_PER_BONE);
-            let inverse = fk
-                .world(j)
-                .try_inverse()
-                .unwrap_or_else(crate::math::Matrix4::identity);
+            let tip_translates = skeleton.joint(c).dof == JointDof::Free;
             let start = points.len();
-            for i in 0..n {
-                let t = (i as f64 + 0.5) / n as f64;
-                let p = a + (b - a) * t;
+            if tip_translates {
+                // Only the ends are known to move with the joints: one point where the bone
+                // leaves its joint, the rest of the bone's weight at its tip.
                 points.push(ModelPoint {
                     bone: bones.len(),
                     joint: j,
-                    local: transform_point(&inverse, &p),
+                    local: Point3::origin(),
+                    along: 0.0,
                 });
+                for _ in 0..n.max(2) - 1 {
+                    points.push(ModelPoint {
+                        bone: bones.len(),
+                        joint: c,
+                        local: Point3::origin(),
+                        along: 1.0,
+                    });
+                }
+            } else {
+                let inverse = fk
+                    .world(j)
+                    .try_inverse()
+                    .unwrap_or_else(crate::math::Matrix4::identity);
+                for i in 0..n {
+                    let t = (i as f64 + 0.5) / n as f64;
+                    let p = a + (b - a) * t;
+                    points.push(ModelPoint {
+                        bone: bones.len(),
+                        joint: j,
+                        local: transform_point(&inverse, &p),
+                        along: t,
+                    });
+                }
             }
             bone_points.push(start..points.len());
             bones.push(Bone {
                 joint: j,
                 child: c,
                 length,
+                tip_translates,
             });
         }
         // The bones leaving each anchor, so that finding a bone's continuations is linear in
@@ -117,6 +144,11 @@ impl BoneModel {
             bone_points,
             next_bones,
         }
+    }
+
+    /// Whether every bone's tip translates: a marker rig, with no shape to place rigidly.
+    pub fn is_markers(&self) -> bool {
+        self.bones.iter().all(|b| b.tip_translates)
     }
 
     /// The world position of every model point.

@@ -170,12 +170,14 @@ impl BvhDocument {
         } else {
             vec![self.animation()]
         };
-        Rig {
+        let mut rig = Rig {
             skeleton: self.skeleton(),
             pose,
             meshes: Vec::new(),
             animations,
-        }
+        };
+        rig.free_translating_joints();
+        rig
     }
 
     /// Stores `pose` as frame `frame`: each joint's local rotation becomes Euler angles in

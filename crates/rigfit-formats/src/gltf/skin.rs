@@ -170,13 +170,12 @@ pub(super) fn build_rig(
 
     let animations = read_animations(json, buffers, &local_of_node, &new_index)?;
     let pose = skeleton.rest_pose();
-    Ok((
-        Rig {
-            skeleton,
-            pose,
-            meshes,
-            animations,
-        },
-        joint_nodes,
-    ))
+    let mut rig = Rig {
+        skeleton,
+        pose,
+        meshes,
+        animations,
+    };
+    rig.free_translating_joints();
+    Ok((rig, joint_nodes))
 }

@@ -1,0 +1,420 @@
+//! Which chain each stroke covers. Every stroke is compared with every chain of bones it
+//! could cover, both ways round ([`candidates`]); then the strokes' chains are chosen
+//! together so that no two strokes share a bone and the total cost is least, a stroke with
+//! no chain left being set aside as a stray ([`assign`]).
+//!
+//! A stroke and a chain are compared in one of two ways. At the current pose: the mean
+//! squared distance between their arclength samples, the attached end weighed more. Or by
+//! shape (the default): the distance between where the chain attaches and where the stroke
+//! starts, the residual once the chain is turned rigidly about its attachment onto the
+//! stroke, and a small price for how far it had to turn. The second lets a limb drawn far
+//! from where it is now still find its stroke; the price of turning keeps a leg raised
+//! upright from taking the spine's stroke when the spine's own fits as well.
+
+use nalgebra::Matrix3;
+
+use super::chains::{Assignment, SAMPLES, arclength_samples};
+use super::setup::Setup;
+use crate::kinematics::ForwardKinematics;
+use crate::math::{Point3, Vector3};
+use crate::skeleton::Pose;
+
+/// Chains more than this much longer or shorter (relative) than a stroke are not candidates.
+const MAX_LENGTH_MISMATCH: f64 = 0.6;
+/// Weight of the relative length mismatch (costs are in squared heights).
+const LENGTH_WEIGHT: f64 = 0.1;
+/// A chain attached further than this (heights) from where a stroke starts is not a
+/// candidate for it (shape matching).
+const MAX_ATTACH_DISTANCE: f64 = 0.5;
+/// Weight of the squared attachment distance.
+const ATTACH_WEIGHT: f64 = 2.0;
+/// Weight of the squared distance the chain's tip travels when it is turned (heights).
+const TURN_WEIGHT: f64 = 0.02;
+/// A candidate costing more than this explains its stroke no better than setting the
+/// stroke aside; it is also what a stray costs in the assignment.
+pub(super) const STRAY_COST: f64 = 0.2;
+/// The samples from a chain's attached end that say where it attaches (the first fifth or
+/// so, which moves little with the limb's pose).
+const PROXIMAL_SAMPLES: usize = 5;
+/// The candidates each stroke keeps (best first).
+const KEPT_CANDIDATES: usize = 32;
+/// Search nodes per group of strokes competing for bones, before the best assignment
+/// found so far is kept.
+const SEARCH_BUDGET: usize = 20_000;
+
+/// One way for a stroke to be explained: its cost, the chain's index, and whether the
+/// stroke runs tip first.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Candidate {
+    pub cost: f64,
+    pub chain: usize,
+    pub reversed: bool,
+}
+
+/// Per stroke, its candidates, best first.
+pub(super) type Candidates = Vec<Vec<Candidate>>;
+
+/// Every chain at `pose` sampled by arclength, with its length and where it attaches.
+struct ChainSamples {
+    samples: Vec<Point3>,
+    length: f64,
+}
+
+/// The candidates of every stroke not `excluded`, at `pose`.
+pub(super) fn candidates(
+    setup: &Setup,
+    pose: &Pose,
+    chains: &[Vec<usize>],
+    excluded: &[bool],
+) -> Candidates {
+    let model = &setup.model;
+    let h = setup.height;
+    let fk = ForwardKinematics::new(setup.skeleton, pose);
+    let sampled: Vec<ChainSamples> = chains
+        .iter()
+        .map(|c| ChainSamples {
+            samples: arclength_samples(&model.chain_polyline(c, &fk)).0,
+            length: c.iter().map(|&b| model.bones[b].length).sum(),
+        })
+        .collect();
+    let translating: Vec<bool> = chains
+        .iter()
+        .map(|c| c.iter().any(|&b| model.bones[b].tip_translates))
+        .collect();
+    let mut out: Candidates = vec![Vec::new(); setup.strokes.count()];
+    for (s, list) in out.iter_mut().enumerate() {
+        // Comparing every stroke with every chain is the solver's widest loop: an interrupt
+        // leaves the remaining strokes without candidates (nothing more is assigned).
+        if excluded[s] || setup.interrupt.is_set() {
+            continue;
+        }
+        let (stroke, stroke_length) = arclength_samples(setup.strokes.stroke(s));
+        for (c, chain) in chains.iter().enumerate() {
+            if !setup.stroke_may_cover(s, chain) {
+                continue;
+            }
+            let ChainSamples { samples, length } = &sampled[c];
+            let mismatch = (stroke_length - length) / length.max(1e-12);
+            if mismatch.abs() > MAX_LENGTH_MISMATCH && !translating[c] {
+                continue;
+            }
+            let length_cost = LENGTH_WEIGHT * mismatch.min(MAX_LENGTH_MISMATCH).powi(2);
+            for reversed in [false, true] {
+                let near = distance_cost(&stroke, samples, reversed, h);
+                // A pinned stroke keeps its chains however far they are.
+                let pinned = setup.strokes.allowed_bones[s].is_some();
+                // Where the chain attaches, then its distance now or its shape turned,
+                // whichever is less.
+                let cost = if setup.options.shape_matching {
+                    shape_cost(&stroke, samples, reversed, h)
+                        .map(|(attach, turned)| ATTACH_WEIGHT * attach + turned.min(near))
+                        .or(pinned.then_some(near))
+                } else {
+                    Some(near)
+                };
+                if let Some(mut cost) = cost.map(|c| c + length_cost) {
+                    if pinned {
+                        // Cheaper than a stray, in the same order.
+                        cost = 0.5 * STRAY_COST * cost / (cost + STRAY_COST);
+                    }
+                    if !setup.options.shape_matching || pinned || cost <= STRAY_COST {
+                        list.push(Candidate {
+                            cost,
+                            chain: c,
+                            reversed,
+                        });
+                    }
+                }
+            }
+        }
+        list.sort_by(|a, b| a.cost.total_cmp(&b.cost));
+        if setup.options.global_assignment {
+            list.truncate(KEPT_CANDIDATES);
+        }
+    }
+    out
+}
+
+/// The stroke's arclength sample `i` counted from the end that lies on the chain's root.
+fn oriented(stroke: &[Point3], i: usize, reversed: bool) -> Point3 {
+    stroke[if reversed { SAMPLES - 1 - i } else { i }]
+}
+
+/// Mean squared distance at the current pose (heights), the attached end weighed more:
+/// where a chain attaches moves little with the pose, its tip moves most.
+fn distance_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) -> f64 {
+    let weight = |i: usize| 1.2 - i as f64 / (SAMPLES - 1) as f64;
+    let (mut sum, mut weights) = (0.0, 0.0);
+    for i in 0..SAMPLES {
+        sum += weight(i) * (oriented(stroke, i, reversed) - chain[i]).norm_squared();
+        weights += weight(i);
+    }
+    sum / weights / (h * h)
+}
+
+/// Where the chain attaches (the mean squared distance of the stroke's and the chain's
+/// proximal samples) and how well its shape fits once turned about its attachment (the
+/// residual plus a price for the turn), in squared heights; `None` when the chain attaches
+/// too far from where the stroke starts.
+fn shape_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) -> Option<(f64, f64)> {
+    let pivot = chain[0];
+    if (oriented(stroke, 0, reversed) - pivot).norm() > MAX_ATTACH_DISTANCE * h {
+        return None;
+    }
+    let attach = (0..PROXIMAL_SAMPLES)
+        .map(|i| (oriented(stroke, i, reversed) - chain[i]).norm_squared())
+        .sum::<f64>()
+        / PROXIMAL_SAMPLES as f64
+        / (h * h);
+    // The rotation about the pivot taking the chain onto the stroke (Kabsch).
+    let mut cross = Matrix3::zeros();
+    let mut squares = 0.0;
+    for i in 0..SAMPLES {
+        let a: Vector3 = chain[i] - pivot;
+        let b: Vector3 = oriented(stroke, i, reversed) - pivot;
+        cross += a * b.transpose();
+        squares += a.norm_squared() + b.norm_squared();
+    }
+    let svd = cross.svd(true, true);
+    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+        return None;
+    };
+    let mut reflection = Matrix3::identity();
+    if (v_t.transpose() * u.transpose()).determinant() < 0.0 {
+        reflection[(2, 2)] = -1.0;
+    }
+    let s = svd.singular_values;
+    let aligned = s[0] + s[1] + reflection[(2, 2)] * s[2];
+    let residual = (squares - 2.0 * aligned).max(0.0) / SAMPLES as f64 / (h * h);
+    let turn = v_t.transpose() * reflection * u.transpose();
+    let angle = ((turn.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos();
+    let reach = (chain[SAMPLES - 1] - pivot).norm() / h;
+    Some((attach, residual + TURN_WEIGHT * (angle * reach).powi(2)))
+}
+
+/// Each stroke's chain: strokes with a `fixed` chain keep it, `excluded` strokes stay set
+/// aside, the others are chosen together (or greedily, best first, without
+/// `global_assignment`) so that no bone is covered twice.
+pub(super) fn assign(
+    setup: &Setup,
+    chains: &[Vec<usize>],
+    candidates: &Candidates,
+    fixed: &[Assignment],
+    excluded: &[bool],
+) -> Vec<Assignment> {
+    let greedy = greedy(setup, chains, candidates, fixed, excluded);
+    if !setup.options.global_assignment {
+        return greedy;
+    }
+    least_cost(setup, chains, candidates, fixed, excluded, greedy)
+}
+
+/// Greedy assignment: the others take, best first, the best candidate whose bones are
+/// still free.
+fn greedy(
+    setup: &Setup,
+    chains: &[Vec<usize>],
+    candidates: &Candidates,
+    fixed: &[Assignment],
+    excluded: &[bool],
+) -> Vec<Assignment> {
+    let strokes = candidates.len();
+    let mut used = vec![false; setup.model.bones.len()];
+    let mut result: Vec<Assignment> = fixed.to_vec();
+    let mut done: Vec<bool> = excluded.to_vec();
+    for (s, f) in fixed.iter().enumerate() {
+        if let Some((chain, _)) = f {
+            done[s] = true;
+            chain.iter().for_each(|&b| used[b] = true);
+        }
+    }
+    // Each stroke's first candidate that may still be free: bones only ever become used, so
+    // a candidate passed over never comes back (the scan is linear in the candidates).
+    let mut first_free = vec![0usize; strokes];
+    loop {
+        // The unassigned stroke whose best still-free chain fits best.
+        let mut pick: Option<(usize, Candidate)> = None;
+        for s in 0..strokes {
+            if done[s] {
+                continue;
+            }
+            let list = &candidates[s];
+            let skip = list[first_free[s]..]
+                .iter()
+                .position(|c| chains[c.chain].iter().all(|&b| !used[b]))
+                .unwrap_or(list.len() - first_free[s]);
+            first_free[s] += skip;
+            match list.get(first_free[s]) {
+                Some(&c) if pick.is_none_or(|p| c.cost < p.1.cost) => pick = Some((s, c)),
+                Some(_) => {}
+                None => done[s] = true,
+            }
+        }
+        let Some((s, c)) = pick else {
+            break;
+        };
+        done[s] = true;
+        chains[c.chain].iter().for_each(|&b| used[b] = true);
+        result[s] = Some((chains[c.chain].clone(), c.reversed));
+    }
+    result
+}
+
+/// The least-cost assignment (a stray costs [`STRAY_COST`]), by branch and bound over each
+/// group of strokes whose candidates share bones, starting from the greedy one.
+fn least_cost(
+    setup: &Setup,
+    chains: &[Vec<usize>],
+    candidates: &Candidates,
+    fixed: &[Assignment],
+    excluded: &[bool],
+    greedy: Vec<Assignment>,
+) -> Vec<Assignment> {
+    let bones = setup.model.bones.len();
+    let mut used = vec![false; bones];
+    for (chain, _) in fixed.iter().flatten() {
+        chain.iter().for_each(|&b| used[b] = true);
+    }
+    let free: Vec<usize> = (0..candidates.len())
+        .filter(|&s| fixed[s].is_none() && !excluded[s])
+        .collect();
+    // Groups: strokes linked by a bone some candidate of each covers.
+    let mut group: Vec<usize> = (0..candidates.len()).collect();
+    fn find(group: &mut [usize], s: usize) -> usize {
+        let mut r = s;
+        while group[r] != r {
+            group[r] = group[group[r]];
+            r = group[r];
+        }
+        r
+    }
+    let mut bone_owner: Vec<Option<usize>> = vec![None; bones];
+    for &s in &free {
+        for c in &candidates[s] {
+            for &b in &chains[c.chain] {
+                match bone_owner[b] {
+                    None => bone_owner[b] = Some(s),
+                    Some(o) => {
+                        let (ro, rs) = (find(&mut group, o), find(&mut group, s));
+                        group[ro] = rs;
+                    }
+                }
+            }
+        }
+    }
+    let mut result = greedy;
+    let mut members: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    for &s in &free {
+        members.entry(find(&mut group, s)).or_default().push(s);
+    }
+    for strokes in members.into_values() {
+        let start: Vec<Option<usize>> = strokes
+            .iter()
+            .map(|&s| {
+                result[s].as_ref().and_then(|(chain, rev)| {
+                    candidates[s]
+                        .iter()
+                        .position(|c| chains[c.chain] == *chain && c.reversed == *rev)
+                })
+            })
+            .collect();
+        let mut search = GroupSearch {
+            chains,
+            candidates,
+            strokes: &strokes,
+            used: &mut used,
+            picks: vec![None; strokes.len()],
+            best: start.clone(),
+            best_cost: group_cost(candidates, &strokes, &start),
+            nodes: 0,
+        };
+        search.descend(0, 0.0);
+        for (i, &s) in strokes.iter().enumerate() {
+            result[s] = search.best[i].map(|k| {
+                let c = candidates[s][k];
+                (chains[c.chain].clone(), c.reversed)
+            });
+        }
+    }
+    result
+}
+
+fn group_cost(candidates: &Candidates, strokes: &[usize], picks: &[Option<usize>]) -> f64 {
+    strokes
+        .iter()
+        .zip(picks)
+        .map(|(&s, p)| p.map_or(STRAY_COST, |k| candidates[s][k].cost))
+        .sum()
+}
+
+/// Depth-first branch and bound over one group's strokes.
+struct GroupSearch<'a> {
+    chains: &'a [Vec<usize>],
+    candidates: &'a Candidates,
+    strokes: &'a [usize],
+    used: &'a mut Vec<bool>,
+    picks: Vec<Option<usize>>,
+    best: Vec<Option<usize>>,
+    best_cost: f64,
+    nodes: usize,
+}
+
+impl GroupSearch<'_> {
+    /// The least each remaining stroke can cost, conflicts ignored.
+    fn bound(&self, from: usize) -> f64 {
+        self.strokes[from..]
+            .iter()
+            .map(|&s| {
+                self.candidates[s]
+                    .first()
+                    .map_or(STRAY_COST, |c| c.cost.min(STRAY_COST))
+            })
+            .sum()
+    }
+
+    fn descend(&mut self, depth: usize, cost: f64) {
+        self.nodes += 1;
+        if self.nodes > SEARCH_BUDGET || cost + self.bound(depth) >= self.best_cost - 1e-12 {
+            return;
+        }
+        let Some(&s) = self.strokes.get(depth) else {
+            self.best_cost = cost;
+            self.best.clone_from(&self.picks);
+            return;
+        };
+        for k in 0..self.candidates[s].len() {
+            let c = self.candidates[s][k];
+            let chain = &self.chains[c.chain];
+            if chain.iter().any(|&b| self.used[b]) {
+                continue;
+            }
+            chain.iter().for_each(|&b| self.used[b] = true);
+            self.picks[depth] = Some(k);
+            self.descend(depth + 1, cost + c.cost);
+            chain.iter().for_each(|&b| self.used[b] = false);
+        }
+        self.picks[depth] = None;
+        self.descend(depth + 1, cost + STRAY_COST);
+    }
+}
+
+/// The total cost of `assignment` under `candidates` (a stray, or a chain that is not
+/// among the stroke's candidates, at [`STRAY_COST`]).
+pub(super) fn assignment_cost(
+    chains: &[Vec<usize>],
+    candidates: &Candidates,
+    assignment: &[Assignment],
+) -> f64 {
+    assignment
+        .iter()
+        .zip(candidates)
+        .map(|(a, list)| {
+            a.as_ref()
+                .and_then(|(chain, reversed)| {
+                    list.iter()
+                        .find(|c| chains[c.chain] == *chain && c.reversed == *reversed)
+                })
+                .map_or(STRAY_COST, |c| c.cost.min(STRAY_COST))
+        })
+        .sum()
+}

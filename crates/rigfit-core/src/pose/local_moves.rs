@@ -1,0 +1,254 @@
+//! Local moves on a fitted hypothesis: swap the chains of mirror-image limbs, trade a stray
+//! for an assigned stroke, give a stroke another close chain (the strokes that lose bones
+//! pick again), and move a stroke to a free chain of about its length. Every move is judged
+//! by one accept step ([`Solver::accept`]): a quick fit, then a full one when it explains
+//! the strokes better.
+
+use super::assignment::{Candidates, STRAY_COST, assign, candidates};
+use super::chains::{Assignment, better_direction, stroke_length};
+use super::fitting::FULL_FIT_STEPS;
+use super::solver::{ChainFit, Solver};
+
+/// Levenberg-Marquardt steps used to judge a trial assignment.
+const QUICK_FIT_STEPS: usize = 8;
+
+/// A chain is tried for a stroke when its cost at the current pose is within this factor of
+/// the stroke's own chain's.
+const EJECTION_COST_RATIO: f64 = 3.0;
+
+/// The most strokes set aside as strays that are tried in place of an assigned stroke, per
+/// pass.
+const MAX_STRAY_EXCHANGES: usize = 8;
+
+/// Passes over all moves (a pass that improves nothing ends the search).
+const PASSES: usize = 2;
+
+/// Mirror-image limbs: chains of as many bones whose lengths differ by at most this share.
+const MIRROR_LENGTH_TOLERANCE: f64 = 0.15;
+
+/// Improves `fit` by local moves until none helps.
+pub(super) fn improve(solver: &mut Solver, mut fit: ChainFit) -> ChainFit {
+    solver.fitter.pose = fit.pose.clone();
+    for _pass in 0..PASSES {
+        if solver.setup.interrupt.is_set() {
+            break;
+        }
+        let mut improved = swap_mirror_limbs(solver, &mut fit);
+        improved |= trade_strays(solver, &mut fit);
+        improved |= take_close_chains(solver, &mut fit);
+        improved |= move_to_free_chains(solver, &mut fit);
+        if !improved {
+            break;
+        }
+    }
+    fit.pose = solver.fitter.pose.clone();
+    fit
+}
+
+impl Solver<'_> {
+    /// The one accept step: judges `trial` from the current pose by a quick fit; when it
+    /// explains the strokes better than `fit`, fits it fully and makes it `fit`. Otherwise
+    /// the pose is restored.
+    fn accept(&mut self, trial: Vec<Assignment>, fit: &mut ChainFit) -> bool {
+        if self.trials_left == 0 {
+            return false;
+        }
+        self.trials_left -= 1;
+        let saved = self.fitter.pose.clone();
+        let layout = self.fitter.keep_unexplained_at_start(&self.setup, &trial);
+        self.fitter
+            .fit_arclength(&self.setup, &layout, &trial, QUICK_FIT_STEPS);
+        if self.score(&trial, &layout) < fit.score {
+            self.fitter
+                .fit_arclength(&self.setup, &layout, &trial, FULL_FIT_STEPS);
+            fit.score = self.score(&trial, &layout);
+            fit.assignment = trial;
+            fit.layout = layout;
+            return true;
+        }
+        self.fitter.pose = saved;
+        false
+    }
+
+    fn ranked_now(&self) -> Candidates {
+        let none = vec![false; self.setup.strokes.count()];
+        candidates(&self.setup, &self.fitter.pose, &self.chains, &none)
+    }
+
+    fn chain_length(&self, chain: &[usize]) -> f64 {
+        chain
+            .iter()
+            .map(|&b| self.setup.model.bones[b].length)
+            .sum()
+    }
+}
+
+/// Swap the chains of two strokes on mirror-image limbs when that explains them better.
+fn swap_mirror_limbs(solver: &mut Solver, fit: &mut ChainFit) -> bool {
+    let strokes = fit.assignment.len();
+    let mut improved = false;
+    for s in 0..strokes {
+        for t in s + 1..strokes {
+            let (Some((cs, _)), Some((ct, _))) = (&fit.assignment[s], &fit.assignment[t]) else {
+                continue;
+            };
+            if !solver.setup.stroke_may_cover(s, ct) || !solver.setup.stroke_may_cover(t, cs) {
+                continue;
+            }
+            let (ls, lt) = (solver.chain_length(cs), solver.chain_length(ct));
+            if cs.len() != ct.len() || (ls - lt).abs() > MIRROR_LENGTH_TOLERANCE * ls.max(lt) {
+                continue;
+            }
+            let pose = &solver.fitter.pose;
+            let mut trial = fit.assignment.clone();
+            trial[s] = Some((ct.clone(), better_direction(&solver.setup, pose, s, ct)));
+            trial[t] = Some((cs.clone(), better_direction(&solver.setup, pose, t, cs)));
+            improved |= solver.accept(trial, fit);
+        }
+    }
+    improved
+}
+
+/// A stroke set aside as a stray may be the real one: give it the chain of an assigned
+/// stroke and set that one aside instead.
+fn trade_strays(solver: &mut Solver, fit: &mut ChainFit) -> bool {
+    let strokes = fit.assignment.len();
+    let mut improved = false;
+    // The candidates at the current pose, computed again only after the pose moved.
+    let mut ranked_now: Option<Candidates> = None;
+    let mut set_aside: Vec<usize> = (0..strokes)
+        .filter(|&e| fit.assignment[e].is_none())
+        .collect();
+    if set_aside.len() > MAX_STRAY_EXCHANGES {
+        // Many strays (clutter): only those that fit some chain best are tried.
+        let ranked = solver.ranked_now();
+        let best = |e: usize| ranked[e].first().map_or(f64::INFINITY, |c| c.cost);
+        set_aside.sort_by(|&a, &b| best(a).total_cmp(&best(b)));
+        set_aside.truncate(MAX_STRAY_EXCHANGES);
+        set_aside.sort_unstable();
+        ranked_now = Some(ranked);
+    }
+    for e in set_aside {
+        if fit.assignment[e].is_some() {
+            continue;
+        }
+        let ranked = ranked_now
+            .get_or_insert_with(|| solver.ranked_now())
+            .clone();
+        if ranked[e].first().is_none_or(|c| c.cost >= STRAY_COST)
+            && solver.setup.options.shape_matching
+        {
+            // No chain could take it.
+            continue;
+        }
+        for s in 0..strokes {
+            if fit.assignment[s].is_none() {
+                continue;
+            }
+            // Stroke `e` takes its best chain among the bones `s` leaves free.
+            let mut fixed = fit.assignment.clone();
+            fixed[s] = None;
+            let mut excluded: Vec<bool> =
+                (0..strokes).map(|t| t != e && fixed[t].is_none()).collect();
+            excluded[s] = true;
+            let trial = assign(&solver.setup, &solver.chains, &ranked, &fixed, &excluded);
+            if trial[e].is_some() && solver.accept(trial, fit) {
+                improved = true;
+                ranked_now = None;
+                break;
+            }
+        }
+    }
+    improved
+}
+
+/// Give a stroke one of its best candidate chains at the current pose, and let the strokes
+/// whose chains that takes pick again.
+fn take_close_chains(solver: &mut Solver, fit: &mut ChainFit) -> bool {
+    let strokes = fit.assignment.len();
+    let mut improved = false;
+    let ranked = solver.ranked_now();
+    for s in 0..strokes {
+        let Some((current, _)) = fit.assignment[s].clone() else {
+            continue;
+        };
+        // Only chains that lie about as close to the stroke as its own does.
+        let chains = &solver.chains;
+        let own = ranked[s]
+            .iter()
+            .find(|c| chains[c.chain] == current)
+            .map_or(f64::INFINITY, |c| c.cost);
+        let picks: Vec<_> = ranked[s]
+            .iter()
+            .filter(|c| chains[c.chain] != current && c.cost < EJECTION_COST_RATIO * own)
+            .take(2)
+            .copied()
+            .collect();
+        for pick in picks {
+            let chain = &solver.chains[pick.chain];
+            let mut fixed = fit.assignment.clone();
+            fixed[s] = Some((chain.clone(), pick.reversed));
+            for (t, f) in fixed.iter_mut().enumerate() {
+                if t != s
+                    && f.as_ref()
+                        .is_some_and(|(ct, _)| ct.iter().any(|b| chain.contains(b)))
+                {
+                    *f = None;
+                }
+            }
+            let excluded: Vec<bool> = (0..strokes).map(|t| fit.assignment[t].is_none()).collect();
+            let trial = assign(&solver.setup, &solver.chains, &ranked, &fixed, &excluded);
+            if trial != fit.assignment && solver.accept(trial, fit) {
+                improved = true;
+                break;
+            }
+        }
+    }
+    improved
+}
+
+/// Move a stroke to a free chain of similar length (the other side's limb when one limb
+/// is undrawn), or grow or shrink its chain (a stroke that fits its chain only in part).
+fn move_to_free_chains(solver: &mut Solver, fit: &mut ChainFit) -> bool {
+    let strokes = fit.assignment.len();
+    let mut improved = false;
+    for s in 0..strokes {
+        let Some((current, _)) = fit.assignment[s].clone() else {
+            continue;
+        };
+        let mut used = vec![false; solver.setup.model.bones.len()];
+        for (t, a) in fit.assignment.iter().enumerate() {
+            if t != s {
+                a.iter().flat_map(|a| &a.0).for_each(|&b| used[b] = true);
+            }
+        }
+        let lc = solver.chain_length(&current);
+        let drawn = stroke_length(&solver.setup, s);
+        let mut options: Vec<&Vec<usize>> = solver
+            .chains
+            .iter()
+            .filter(|c| **c != current && c.iter().all(|&b| !used[b]))
+            .filter(|c| solver.setup.stroke_may_cover(s, c))
+            .filter(|c| {
+                c.iter().any(|b| current.contains(b))
+                    || (solver.chain_length(c) - lc).abs() < MIRROR_LENGTH_TOLERANCE * lc
+            })
+            .collect();
+        options.sort_by(|a, b| {
+            (solver.chain_length(a) - drawn)
+                .abs()
+                .total_cmp(&(solver.chain_length(b) - drawn).abs())
+        });
+        let options: Vec<Vec<usize>> = options.into_iter().take(3).cloned().collect();
+        for c in options {
+            let mut trial = fit.assignment.clone();
+            let reversed = better_direction(&solver.setup, &solver.fitter.pose, s, &c);
+            trial[s] = Some((c, reversed));
+            if solver.accept(trial, fit) {
+                improved = true;
+                break;
+            }
+        }
+    }
+    improved
+}

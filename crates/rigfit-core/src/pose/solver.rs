@@ -1,0 +1,301 @@
+//! One solve from start to end: the rigid multi-start gives hypotheses; the chain step fits
+//! each (assign chains, fit by arclength, set strays aside, re-assign until stable); local
+//! moves improve the best; a restricted softassign polishes the winner. Without the chain
+//! step, the paper's annealing over all bones.
+
+use super::annealing::{anneal, bones_by_weight, energy, schedule, settle};
+use super::assignment::{assign, assignment_cost, candidates};
+use super::chains::{Assignment, stroke_residuals};
+use super::fitting::{FULL_FIT_STEPS, Fitter};
+use super::local_moves::improve;
+use super::multi_start::rigid_placements;
+use super::setup::Setup;
+use super::{PoseError, PoseResult};
+use crate::kinematics::DofLayout;
+use crate::skeleton::Pose;
+
+/// Weight of the mean squared joint rotation (radians) against the mean squared stroke
+/// residual (heights) when choosing among hypotheses.
+const HYPOTHESIS_BEND_WEIGHT: f64 = 2e-3;
+
+/// The longest chain of bones one stroke may cover.
+const MAX_CHAIN_BONES: usize = 24;
+
+/// The most trial assignments the local moves fit in one solve (the real rigs of the
+/// accuracy suite use at most about 110; a thousand cluttered strokes would use tens of
+/// thousands).
+const MAX_LOCAL_SEARCH_TRIALS: usize = 1_000;
+
+/// Hypotheses (of the best-explained ones) that the local moves improve.
+const IMPROVED_HYPOTHESES: usize = 2;
+
+/// Weight of a hypothesis's placement cost against its score when hypotheses are ranked.
+const PLACEMENT_WEIGHT: f64 = 0.05;
+
+impl ChainFit {
+    /// How hypotheses are ranked: the fit's score and what it took to get there.
+    fn rank(&self) -> f64 {
+        self.score + PLACEMENT_WEIGHT * self.placement_cost
+    }
+}
+
+/// Rounds of the chain step (re-assignments and strays set aside).
+const CHAIN_STEP_ROUNDS: usize = 8;
+
+/// A fitted hypothesis: its score, pose, assignment and the layout of joints that move.
+#[derive(Clone)]
+pub(super) struct ChainFit {
+    pub score: f64,
+    /// The mean cost of the first assignment, at the hypothesis's placement: how far the
+    /// limbs had to travel from it (the strokes alone often cannot tell a body from its
+    /// mirror image turned around).
+    pub placement_cost: f64,
+    pub pose: Pose,
+    pub assignment: Vec<Assignment>,
+    pub layout: DofLayout,
+}
+
+/// A solve in progress.
+pub(super) struct Solver<'a> {
+    pub setup: Setup<'a>,
+    pub fitter: Fitter,
+    /// Every chain of bones a stroke may cover.
+    pub chains: Vec<Vec<usize>>,
+    /// Trial assignments the local moves may still fit (bounds their cost on many strokes).
+    pub trials_left: usize,
+}
+
+impl<'a> Solver<'a> {
+    pub fn new(setup: Setup<'a>) -> Self {
+        let fitter = Fitter::new(setup.start.clone(), setup.options.prior_weight);
+        let chains = if setup.options.chain_assignment {
+            setup.model.chains(MAX_CHAIN_BONES)
+        } else {
+            Vec::new()
+        };
+        Self {
+            setup,
+            fitter,
+            chains,
+            trials_left: MAX_LOCAL_SEARCH_TRIALS,
+        }
+    }
+
+    pub fn run(mut self) -> Result<PoseResult, PoseError> {
+        let setup = &self.setup;
+        let opts = setup.options;
+        let starts = match (opts.rigid_init, setup.root) {
+            // Markers are placed by their strokes alone.
+            (true, Some(root)) if !setup.model.is_markers() => rigid_placements(setup, root),
+            _ => vec![setup.start.clone()],
+        };
+        let all = setup.layout(&setup.movable);
+        let sigmas = schedule(
+            setup.height,
+            opts.sigma_start,
+            opts.sigma_end,
+            opts.anneal_steps,
+            opts.additive_beta,
+        );
+        let last = *sigmas.last().unwrap_or(&opts.sigma_end);
+        if !opts.chain_assignment {
+            self.fitter.pose = starts.into_iter().next().expect("at least one start");
+            anneal(&self.setup, &mut self.fitter, &all, &sigmas, None);
+            let matches = settle(&self.setup, &mut self.fitter, &all, last, None);
+            return Ok(self.result(bones_by_weight(&self.setup, &matches), &matches));
+        }
+        // Every hypothesis goes through the whole chain step; the ones whose strokes are
+        // best explained are improved by local moves, and the best wins.
+        let mut fits: Vec<ChainFit> = Vec::new();
+        for start in starts {
+            if self.setup.interrupt.is_set() {
+                break;
+            }
+            self.fitter.pose = start;
+            if opts.anneal_before_chains {
+                anneal(&self.setup, &mut self.fitter, &all, &sigmas, None);
+            }
+            fits.push(self.chain_step());
+        }
+        fits.sort_by(|a, b| a.rank().total_cmp(&b.rank()));
+        // Hypotheses that converged to the same assignment are one.
+        fits.dedup_by(|a, b| a.assignment == b.assignment);
+        let cutoff = fits.first().map_or(0.0, |f| 2.0 * f.rank());
+        let mut best: Option<ChainFit> = None;
+        for fit in fits
+            .into_iter()
+            .filter(|f| f.rank() <= cutoff)
+            .take(IMPROVED_HYPOTHESES)
+        {
+            let fit = improve(&mut self, fit);
+            if best.as_ref().is_none_or(|b| fit.rank() < b.rank()) {
+                best = Some(fit);
+            }
+        }
+        // Only when interrupted before the first hypothesis was fitted.
+        let best = best.ok_or(PoseError::Interrupted)?;
+        self.fitter.pose = best.pose;
+        let allowed_bones: Vec<Option<Vec<bool>>> = best
+            .assignment
+            .iter()
+            .map(|c| {
+                // A bone whose tip translates has its weight at its ends: nearest-point
+                // matching would pull its tip into the stroke; its arclength fit stands.
+                let bones = &self.setup.model.bones;
+                let mut a = vec![false; bones.len()];
+                c.iter()
+                    .flat_map(|c| &c.0)
+                    .for_each(|&b| a[b] = !bones[b].tip_translates);
+                Some(a)
+            })
+            .collect();
+        // With every stroke's chain known, the start-pose prior has done its job (keeping
+        // twists and choosing among mirror images); the polish lets short bones follow
+        // their strokes.
+        self.fitter.prior_weight = opts.prior_weight * 0.05;
+        // Joints that translate keep where the arclength fit put them (the polish matches
+        // only bones that turn, and the prior alone would pull them back).
+        let mut polished: Vec<bool> = (0..self.setup.skeleton.len())
+            .map(|j| best.layout.offset(j).is_some())
+            .collect();
+        for bone in self.setup.model.bones.iter().filter(|b| b.tip_translates) {
+            polished[bone.child] = false;
+        }
+        let polish_layout = self.setup.layout(&polished);
+        let matches = settle(
+            &self.setup,
+            &mut self.fitter,
+            &polish_layout,
+            last,
+            Some(&allowed_bones),
+        );
+        let stroke_bones = best
+            .assignment
+            .iter()
+            .map(|c| match c {
+                Some((chain, reversed)) => {
+                    let mut joints: Vec<usize> = chain
+                        .iter()
+                        .map(|&b| self.setup.model.bones[b].joint)
+                        .collect();
+                    if *reversed {
+                        joints.reverse();
+                    }
+                    joints
+                }
+                None => Vec::new(),
+            })
+            .collect();
+        Ok(self.result(stroke_bones, &matches))
+    }
+
+    fn result(
+        &self,
+        mut stroke_bones: Vec<Vec<usize>>,
+        matches: &crate::engine::MatchMatrix,
+    ) -> PoseResult {
+        for b in &mut stroke_bones {
+            b.dedup();
+        }
+        PoseResult {
+            pose: self.fitter.pose.clone(),
+            stroke_bones,
+            iterations: self.fitter.iterations,
+            energy: energy(&self.setup, &self.fitter, matches),
+        }
+    }
+
+    /// The chain step from the fitter's pose: assign chains, fit by arclength, set strays
+    /// aside (judged after the fit: a stroke its chain cannot follow), re-assign until
+    /// stable.
+    fn chain_step(&mut self) -> ChainFit {
+        let strokes = self.setup.strokes.count();
+        let stray = self.setup.options.stray_distance;
+        let initial = self.fitter.pose.clone();
+        let mut excluded = vec![false; strokes];
+        let (mut assignment, placement_cost) = self.assign_now(&excluded);
+        let mut layout = self.setup.layout(&self.setup.movable);
+        for _round in 0..CHAIN_STEP_ROUNDS {
+            if self.setup.interrupt.is_set() {
+                break;
+            }
+            layout = self
+                .fitter
+                .keep_unexplained_at_start(&self.setup, &assignment);
+            self.fitter
+                .fit_arclength(&self.setup, &layout, &assignment, FULL_FIT_STEPS);
+            let (again, _) = self.assign_now(&excluded);
+            if again != assignment {
+                assignment = again;
+                continue;
+            }
+            // The assignment is stable. A stroke that stays far from its fitted chain is a
+            // stray: set it aside and start over without it.
+            let residuals = stroke_residuals(&self.setup, &self.fitter.pose, &assignment);
+            let worst = (0..strokes)
+                .filter(|&s| assignment[s].is_some())
+                .max_by(|&a, &b| residuals[a].total_cmp(&residuals[b]));
+            match worst.filter(|&s| residuals[s] > stray) {
+                Some(s) => {
+                    excluded[s] = true;
+                    self.fitter.pose = initial.clone();
+                    assignment = self.assign_now(&excluded).0;
+                }
+                None => break,
+            }
+        }
+        let score = self.score(&assignment, &layout);
+        ChainFit {
+            score,
+            placement_cost: placement_cost / strokes.max(1) as f64,
+            pose: self.fitter.pose.clone(),
+            assignment,
+            layout,
+        }
+    }
+
+    /// The assignment of every stroke not `excluded` from the candidates at the current
+    /// pose, with its total cost (a stray at [`STRAY_COST`]).
+    fn assign_now(&self, excluded: &[bool]) -> (Vec<Assignment>, f64) {
+        let ranked = candidates(&self.setup, &self.fitter.pose, &self.chains, excluded);
+        let assignment = assign(
+            &self.setup,
+            &self.chains,
+            &ranked,
+            &vec![None; excluded.len()],
+            excluded,
+        );
+        let cost = assignment_cost(&self.chains, &ranked, &assignment);
+        (assignment, cost)
+    }
+
+    /// How well the current pose explains the strokes under `assignment`: the mean squared
+    /// stroke residual (strays counted at the stray distance) plus a small preference for
+    /// bending less.
+    pub fn score(&self, assignment: &[Assignment], layout: &DofLayout) -> f64 {
+        let setup = &self.setup;
+        let stray = setup.options.stray_distance;
+        let strokes = assignment.len();
+        let residuals = stroke_residuals(setup, &self.fitter.pose, assignment);
+        let data = (0..strokes)
+            .map(|s| match assignment[s] {
+                Some(_) => residuals[s].powi(2),
+                None => stray * stray,
+            })
+            .sum::<f64>()
+            / strokes.max(1) as f64;
+        // Strokes alone cannot always tell a body from its mirror image turned around (ball
+        // joints bend either way), so among fits that explain the strokes equally, the one
+        // that bends the joints least away from the start pose wins.
+        let moved: Vec<f64> = (0..setup.skeleton.len())
+            .filter(|&j| Some(j) != setup.root && layout.offset(j).is_some())
+            .map(|j| {
+                (setup.start.local[j].rotation.inverse() * self.fitter.pose.local[j].rotation)
+                    .angle()
+                    .powi(2)
+            })
+            .collect();
+        let bend = moved.iter().sum::<f64>() / moved.len().max(1) as f64;
+        data + HYPOTHESIS_BEND_WEIGHT * bend
+    }
+}

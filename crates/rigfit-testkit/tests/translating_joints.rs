@@ -1,0 +1,115 @@
+//! Joints that translate (issue 20): a rig whose animation moves a joint's translation gets
+//! translation degrees of freedom, and posing moves it; a marker rig (every joint a child
+//! of one root, moved by translation alone) is posed from strokes pinned to its markers and
+//! refused, with one line saying why, when no stroke says which marker it draws.
+
+use rigfit_core::JointDof;
+use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem, solve_pose};
+use rigfit_testkit::{Corpus, CorpusRig, Scenario, generate_case};
+
+fn corpus_rig(id: &str) -> CorpusRig {
+    let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
+    let entry = corpus
+        .entry(id)
+        .unwrap_or_else(|| panic!("{id} is not in the corpus manifest"));
+    corpus.read_rig(entry).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn animated_translations_become_translation_dofs() {
+    let markers = corpus_rig("markers-boxing_toes");
+    let skeleton = &markers.rig.skeleton;
+    let free = skeleton
+        .joints()
+        .iter()
+        .filter(|j| j.dof == JointDof::Free)
+        .count();
+    // The root and every marker.
+    assert_eq!(
+        free,
+        skeleton.len(),
+        "every joint of the marker rig translates"
+    );
+    // mrfixit's elbow-rotation helpers are animated by translation; its IK goals (helpers
+    // above the character) stay fixed.
+    let mrfixit = corpus_rig("assimp-mrfixit");
+    let s = &mrfixit.rig.skeleton;
+    let dof = |name: &str| s.joint(s.find(name).expect("joint")).dof;
+    assert_eq!(dof("ElbowRot.L"), JointDof::Free);
+    // A BVH without position channels below its root keeps ball joints.
+    let cmu = corpus_rig("cmu-01_01");
+    let s = &cmu.rig.skeleton;
+    assert_eq!(
+        s.joints()
+            .iter()
+            .filter(|j| j.dof == JointDof::Free)
+            .count(),
+        1
+    );
+}
+
+#[test]
+fn markers_without_pinned_strokes_are_refused_with_one_line() {
+    let markers = corpus_rig("markers-boxing_toes");
+    let generated = generate_case(&markers, Scenario::LimbsOnly, 0);
+    let problem = PoseProblem {
+        skeleton: &markers.rig.skeleton,
+        start: &markers.start,
+        strokes: &generated.case.strokes,
+        movable: None,
+        height: markers.height,
+    };
+    let error = solve_pose(&problem, &PoseOptions::default()).expect_err("refused");
+    assert!(
+        matches!(error, PoseError::UnpinnedMarkers { .. }),
+        "{error}"
+    );
+    assert!(error.is_rig_problem());
+    let text = error.to_string();
+    assert!(
+        !text.contains('\n') && text.contains("'Vicon'") && text.contains("pin"),
+        "{text}"
+    );
+}
+
+#[test]
+fn pinned_strokes_move_markers_by_translation() {
+    let markers = corpus_rig("markers-boxing_toes");
+    let skeleton = &markers.rig.skeleton;
+    let generated = generate_case(&markers, Scenario::LimbsOnly, 0);
+    // Each stroke pinned to the marker it was drawn to.
+    let strokes: Vec<_> = generated
+        .case
+        .strokes
+        .iter()
+        .zip(&generated.case.stroke_chains)
+        .map(|(stroke, chain)| {
+            let mut pinned = stroke.clone();
+            let marker = chain
+                .iter()
+                .find(|&&j| skeleton.joint(j).parent.is_some())
+                .expect("a stroke reaches a marker");
+            pinned.bones = Some(vec![skeleton.joint(*marker).name.clone()]);
+            pinned
+        })
+        .collect();
+    let problem = PoseProblem {
+        skeleton,
+        start: &markers.start,
+        strokes: &strokes,
+        movable: None,
+        height: markers.height,
+    };
+    let result = solve_pose(&problem, &PoseOptions::default()).expect("poses");
+    let start = skeleton.joint_positions(&markers.start);
+    let solved = skeleton.joint_positions(&result.pose);
+    let moved = (0..skeleton.len())
+        .filter(|&j| (solved[j] - start[j]).norm() > 0.01 * markers.height)
+        .count();
+    assert!(
+        moved * 2 > skeleton.len(),
+        "only {moved} of {} markers moved",
+        skeleton.len()
+    );
+    assert!(result.stroke_bones.iter().all(|b| !b.is_empty()));
+}
