@@ -60,12 +60,13 @@ struct ChainSamples {
     length: f64,
 }
 
-/// The candidates of every stroke not `excluded`, at `pose`.
+/// The candidates of every stroke not `excluded`, at `pose`, judged by shape or by distance.
 pub(super) fn candidates(
     setup: &Setup,
     pose: &Pose,
     chains: &[Vec<usize>],
     excluded: &[bool],
+    by_shape: bool,
 ) -> Candidates {
     let model = &setup.model;
     let h = setup.height;
@@ -105,7 +106,7 @@ pub(super) fn candidates(
                 let pinned = setup.strokes.allowed_bones[s].is_some();
                 // Where the chain attaches, then its distance now or its shape turned,
                 // whichever is less.
-                let cost = if setup.options.shape_matching {
+                let cost = if by_shape {
                     shape_cost(&stroke, samples, reversed, h)
                         .map(|(attach, turned)| ATTACH_WEIGHT * attach + turned.min(near))
                         .or(pinned.then_some(near))
@@ -117,7 +118,7 @@ pub(super) fn candidates(
                         // Cheaper than a stray, in the same order.
                         cost = 0.5 * STRAY_COST * cost / (cost + STRAY_COST);
                     }
-                    if !setup.options.shape_matching || pinned || cost <= STRAY_COST {
+                    if !by_shape || pinned || cost <= STRAY_COST {
                         list.push(Candidate {
                             cost,
                             chain: c,

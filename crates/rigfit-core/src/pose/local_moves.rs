@@ -29,6 +29,7 @@ const MIRROR_LENGTH_TOLERANCE: f64 = 0.15;
 /// Improves `fit` by local moves until none helps.
 pub(super) fn improve(solver: &mut Solver, mut fit: ChainFit) -> ChainFit {
     solver.fitter.pose = fit.pose.clone();
+    solver.by_shape = fit.by_shape;
     for _pass in 0..PASSES {
         if solver.setup.interrupt.is_set() {
             break;
@@ -72,7 +73,13 @@ impl Solver<'_> {
 
     fn ranked_now(&self) -> Candidates {
         let none = vec![false; self.setup.strokes.count()];
-        candidates(&self.setup, &self.fitter.pose, &self.chains, &none)
+        candidates(
+            &self.setup,
+            &self.fitter.pose,
+            &self.chains,
+            &none,
+            self.by_shape,
+        )
     }
 
     fn chain_length(&self, chain: &[usize]) -> f64 {
@@ -135,9 +142,7 @@ fn trade_strays(solver: &mut Solver, fit: &mut ChainFit) -> bool {
         let ranked = ranked_now
             .get_or_insert_with(|| solver.ranked_now())
             .clone();
-        if ranked[e].first().is_none_or(|c| c.cost >= STRAY_COST)
-            && solver.setup.options.shape_matching
-        {
+        if ranked[e].first().is_none_or(|c| c.cost >= STRAY_COST) && solver.by_shape {
             // No chain could take it.
             continue;
         }

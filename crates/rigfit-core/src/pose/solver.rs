@@ -30,7 +30,7 @@ const MAX_LOCAL_SEARCH_TRIALS: usize = 1_000;
 const IMPROVED_HYPOTHESES: usize = 2;
 
 /// Weight of a hypothesis's placement cost against its score when hypotheses are ranked.
-const PLACEMENT_WEIGHT: f64 = 0.05;
+const PLACEMENT_WEIGHT: f64 = 0.0;
 
 impl ChainFit {
     /// How hypotheses are ranked: the fit's score and what it took to get there.
@@ -53,6 +53,8 @@ pub(super) struct ChainFit {
     pub pose: Pose,
     pub assignment: Vec<Assignment>,
     pub layout: DofLayout,
+    /// Whether its strokes were matched to chains by shape (or by distance).
+    pub by_shape: bool,
 }
 
 /// A solve in progress.
@@ -63,6 +65,8 @@ pub(super) struct Solver<'a> {
     pub chains: Vec<Vec<usize>>,
     /// Trial assignments the local moves may still fit (bounds their cost on many strokes).
     pub trials_left: usize,
+    /// Strokes are matched to chains by shape (or by distance at the current pose).
+    pub by_shape: bool,
 }
 
 impl<'a> Solver<'a> {
@@ -78,6 +82,7 @@ impl<'a> Solver<'a> {
             fitter,
             chains,
             trials_left: MAX_LOCAL_SEARCH_TRIALS,
+            by_shape: false,
         }
     }
 
@@ -106,16 +111,27 @@ impl<'a> Solver<'a> {
         }
         // Every hypothesis goes through the whole chain step; the ones whose strokes are
         // best explained are improved by local moves, and the best wins.
+        // Each placement is fitted with strokes matched by distance and, with shape
+        // matching, by shape too: distance knows best where a limb near its stroke is,
+        // shape finds a limb drawn far from where it is.
+        let modes: &[bool] = if opts.shape_matching {
+            &[true, false]
+        } else {
+            &[false]
+        };
         let mut fits: Vec<ChainFit> = Vec::new();
         for start in starts {
-            if self.setup.interrupt.is_set() {
-                break;
+            for &by_shape in modes {
+                if self.setup.interrupt.is_set() {
+                    break;
+                }
+                self.fitter.pose = start.clone();
+                self.by_shape = by_shape;
+                if opts.anneal_before_chains {
+                    anneal(&self.setup, &mut self.fitter, &all, &sigmas, None);
+                }
+                fits.push(self.chain_step());
             }
-            self.fitter.pose = start;
-            if opts.anneal_before_chains {
-                anneal(&self.setup, &mut self.fitter, &all, &sigmas, None);
-            }
-            fits.push(self.chain_step());
         }
         fits.sort_by(|a, b| a.rank().total_cmp(&b.rank()));
         // Hypotheses that converged to the same assignment are one.
@@ -251,13 +267,20 @@ impl<'a> Solver<'a> {
             pose: self.fitter.pose.clone(),
             assignment,
             layout,
+            by_shape: self.by_shape,
         }
     }
 
     /// The assignment of every stroke not `excluded` from the candidates at the current
     /// pose, with its total cost (a stray at [`STRAY_COST`]).
     fn assign_now(&self, excluded: &[bool]) -> (Vec<Assignment>, f64) {
-        let ranked = candidates(&self.setup, &self.fitter.pose, &self.chains, excluded);
+        let ranked = candidates(
+            &self.setup,
+            &self.fitter.pose,
+            &self.chains,
+            excluded,
+            self.by_shape,
+        );
         let assignment = assign(
             &self.setup,
             &self.chains,
