@@ -1,6 +1,7 @@
 //! Posing speed: a 55-joint rig (BCN_Epileptic: 54 skin joints and its root node) with 10
-//! strokes of 100 points, and the built-in humanoid with its 6 limb strokes. The goal is
-//! live feedback while a stroke is drawn.
+//! strokes of 100 points, the corpus's largest rig (mrfixit, 75 joints) with 30 strokes of
+//! 100 points on every chain, and the built-in humanoid with its 6 limb strokes. The goal
+//! is live feedback while a stroke is drawn.
 //!
 //! `cargo bench -p rigfit-cli --bench pose`
 
@@ -15,11 +16,18 @@ use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
 use rigfit_core::{Pose, Rig, Stroke};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 
-/// `count` strokes of exactly `points` points drawn from `truth`, longest chains first.
-fn draw_strokes(rig: &Rig, truth: &Pose, count: usize, points: usize) -> Vec<Stroke> {
+/// `count` strokes of exactly `points` points drawn from `truth` along chains at least
+/// `min_chain_length` of the height, longest chains first.
+fn draw_strokes(
+    rig: &Rig,
+    truth: &Pose,
+    count: usize,
+    points: usize,
+    min_chain_length: f64,
+) -> Vec<Stroke> {
     let height = rig.height();
     let options = CaseOptions {
-        min_chain_length: 0.03,
+        min_chain_length,
         ..Default::default()
     };
     let mut rng = rand::rngs::StdRng::seed_from_u64(3);
@@ -43,7 +51,7 @@ fn bench(c: &mut Criterion) {
     let rig = &file.rig;
     assert_eq!(rig.skeleton.len(), 55);
     let truth = rig.animations[0].sample(&rig.pose, 1.5);
-    let strokes = draw_strokes(rig, &truth, 10, 100);
+    let strokes = draw_strokes(rig, &truth, 10, 100, 0.03);
     assert_eq!(strokes.len(), 10);
     assert!(strokes.iter().all(|s| s.points.len() == 100));
     let problem = PoseProblem {
@@ -63,7 +71,7 @@ fn bench(c: &mut Criterion) {
     });
     let humanoid = rigfit_core::humanoid::humanoid();
     let truth = humanoid.animations[0].sample(&humanoid.pose, 1.0);
-    let strokes = draw_strokes(&humanoid, &truth, 6, 100);
+    let strokes = draw_strokes(&humanoid, &truth, 6, 100, 0.03);
     let problem = PoseProblem {
         skeleton: &humanoid.skeleton,
         start: &humanoid.pose,
@@ -74,6 +82,31 @@ fn bench(c: &mut Criterion) {
     group.bench_function("humanoid_26_joints_6_strokes_x100", |b| {
         b.iter(|| solve_pose(&problem, &PoseOptions::default()).expect("solves"))
     });
+    // The corpus's largest rig (scripts/fetch-data.sh; RIGFIT_CORPUS or target/test-data).
+    let corpus = std::env::var("RIGFIT_CORPUS").unwrap_or_else(|_| {
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../target/test-data/corpus").to_string()
+    });
+    let path = std::path::Path::new(&corpus).join("assimp/mrfixit.glb");
+    match read_rig(&path, &RigOptions::default()) {
+        Ok(file) => {
+            let rig = &file.rig;
+            assert_eq!(rig.skeleton.len(), 75);
+            let truth = rig.animations[0].sample(&rig.pose, 1.0);
+            let strokes = draw_strokes(rig, &truth, 30, 100, 0.005);
+            assert_eq!(strokes.len(), 30);
+            let problem = PoseProblem {
+                skeleton: &rig.skeleton,
+                start: &rig.pose,
+                strokes: &strokes,
+                movable: None,
+                height: rig.height(),
+            };
+            group.bench_function("mrfixit_75_joints_30_strokes_x100", |b| {
+                b.iter(|| solve_pose(&problem, &PoseOptions::default()).expect("solves"))
+            });
+        }
+        Err(e) => eprintln!("skipping the 75-joint case: {e} (run scripts/fetch-data.sh)"),
+    }
     group.finish();
 }
 

@@ -11,8 +11,6 @@
 //! from where it is now still find its stroke; the price of turning keeps a leg raised
 //! upright from taking the spine's stroke when the spine's own fits as well.
 
-use nalgebra::Matrix3;
-
 use super::chains::{Assignment, SAMPLES, arclength_samples};
 use super::setup::Setup;
 use crate::kinematics::ForwardKinematics;
@@ -154,9 +152,12 @@ fn distance_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) ->
 }
 
 /// Where the chain attaches (the mean squared distance of the stroke's and the chain's
-/// proximal samples) and how well its shape fits once turned about its attachment (the
-/// residual plus a price for the turn), in squared heights; `None` when the chain attaches
-/// too far from where the stroke starts.
+/// proximal samples) and how well its shape fits once turned about its attachment, in
+/// squared heights; `None` when the chain attaches too far from where the stroke starts.
+/// The turned fit is measured without solving for the rotation: the residual compares the
+/// samples' distances from the attachment (what no turn changes; a lower bound of the
+/// residual after the best turn), and the turn is the angle between the chain's and the
+/// stroke's mean directions from it, priced by how far the chain's tip travels.
 fn shape_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) -> Option<(f64, f64)> {
     let pivot = chain[0];
     if (oriented(stroke, 0, reversed) - pivot).norm() > MAX_ATTACH_DISTANCE * h {
@@ -167,28 +168,17 @@ fn shape_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) -> Op
         .sum::<f64>()
         / PROXIMAL_SAMPLES as f64
         / (h * h);
-    // The rotation about the pivot taking the chain onto the stroke (Kabsch).
-    let mut cross = Matrix3::zeros();
-    let mut squares = 0.0;
+    let (mut residual, mut along_chain, mut along_stroke) =
+        (0.0, Vector3::zeros(), Vector3::zeros());
     for i in 0..SAMPLES {
         let a: Vector3 = chain[i] - pivot;
         let b: Vector3 = oriented(stroke, i, reversed) - pivot;
-        cross += a * b.transpose();
-        squares += a.norm_squared() + b.norm_squared();
+        residual += (a.norm() - b.norm()).powi(2);
+        along_chain += a;
+        along_stroke += b;
     }
-    let svd = cross.svd(true, true);
-    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
-        return None;
-    };
-    let mut reflection = Matrix3::identity();
-    if (v_t.transpose() * u.transpose()).determinant() < 0.0 {
-        reflection[(2, 2)] = -1.0;
-    }
-    let s = svd.singular_values;
-    let aligned = s[0] + s[1] + reflection[(2, 2)] * s[2];
-    let residual = (squares - 2.0 * aligned).max(0.0) / SAMPLES as f64 / (h * h);
-    let turn = v_t.transpose() * reflection * u.transpose();
-    let angle = ((turn.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos();
+    let residual = residual / SAMPLES as f64 / (h * h);
+    let angle = along_chain.angle(&along_stroke);
     let reach = (chain[SAMPLES - 1] - pivot).norm() / h;
     Some((attach, residual + TURN_WEIGHT * (angle * reach).powi(2)))
 }
