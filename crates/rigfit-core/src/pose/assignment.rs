@@ -38,7 +38,7 @@ const PROXIMAL_SAMPLES: usize = 5;
 const KEPT_CANDIDATES: usize = 32;
 /// Search nodes per group of strokes competing for bones, before the best assignment
 /// found so far is kept.
-const SEARCH_BUDGET: usize = 20_000;
+const SEARCH_BUDGET: usize = 5_000;
 
 /// One way for a stroke to be explained: its cost, the chain's index, and whether the
 /// stroke runs tip first.
@@ -193,16 +193,17 @@ pub(super) fn assign(
     fixed: &[Assignment],
     excluded: &[bool],
 ) -> Vec<Assignment> {
-    let greedy = greedy(setup, chains, candidates, fixed, excluded);
+    let greedy = complete_greedily(setup, chains, candidates, fixed, excluded);
     if !setup.options.global_assignment {
         return greedy;
     }
     least_cost(setup, chains, candidates, fixed, excluded, greedy)
 }
 
-/// Greedy assignment: the others take, best first, the best candidate whose bones are
-/// still free.
-fn greedy(
+/// Greedy assignment: strokes with a `fixed` chain keep it, `excluded` strokes stay set
+/// aside, the others take, best first, the best candidate whose bones are still free (the
+/// local moves complete their trial assignments this way).
+pub(super) fn complete_greedily(
     setup: &Setup,
     chains: &[Vec<usize>],
     candidates: &Candidates,
@@ -298,7 +299,9 @@ fn least_cost(
     for &s in &free {
         members.entry(find(&mut group, s)).or_default().push(s);
     }
-    for strokes in members.into_values() {
+    for mut strokes in members.into_values() {
+        // The strokes with the fewest choices are decided first (the search narrows fastest).
+        strokes.sort_by_key(|&s| candidates[s].len());
         let start: Vec<Option<usize>> = strokes
             .iter()
             .map(|&s| {
@@ -309,10 +312,19 @@ fn least_cost(
                 })
             })
             .collect();
+        // The least the strokes from each depth on can cost, conflicts ignored.
+        let mut least_after = vec![0.0; strokes.len() + 1];
+        for (i, &s) in strokes.iter().enumerate().rev() {
+            let least = candidates[s]
+                .first()
+                .map_or(STRAY_COST, |c| c.cost.min(STRAY_COST));
+            least_after[i] = least_after[i + 1] + least;
+        }
         let mut search = GroupSearch {
             chains,
             candidates,
             strokes: &strokes,
+            least_after,
             used: &mut used,
             picks: vec![None; strokes.len()],
             best: start.clone(),
@@ -343,6 +355,8 @@ struct GroupSearch<'a> {
     chains: &'a [Vec<usize>],
     candidates: &'a Candidates,
     strokes: &'a [usize],
+    /// The least the strokes from each depth on can cost (a bound, conflicts ignored).
+    least_after: Vec<f64>,
     used: &'a mut Vec<bool>,
     picks: Vec<Option<usize>>,
     best: Vec<Option<usize>>,
@@ -351,30 +365,25 @@ struct GroupSearch<'a> {
 }
 
 impl GroupSearch<'_> {
-    /// The least each remaining stroke can cost, conflicts ignored.
-    fn bound(&self, from: usize) -> f64 {
-        self.strokes[from..]
-            .iter()
-            .map(|&s| {
-                self.candidates[s]
-                    .first()
-                    .map_or(STRAY_COST, |c| c.cost.min(STRAY_COST))
-            })
-            .sum()
-    }
-
     fn descend(&mut self, depth: usize, cost: f64) {
         self.nodes += 1;
-        if self.nodes > SEARCH_BUDGET || cost + self.bound(depth) >= self.best_cost - 1e-12 {
+        if self.nodes > SEARCH_BUDGET {
             return;
         }
         let Some(&s) = self.strokes.get(depth) else {
-            self.best_cost = cost;
-            self.best.clone_from(&self.picks);
+            if cost < self.best_cost {
+                self.best_cost = cost;
+                self.best.clone_from(&self.picks);
+            }
             return;
         };
+        let rest = self.least_after[depth + 1];
         for k in 0..self.candidates[s].len() {
             let c = self.candidates[s][k];
+            // Candidates come best first: once one cannot beat the best, none after can.
+            if cost + c.cost + rest >= self.best_cost - 1e-12 {
+                break;
+            }
             let chain = &self.chains[c.chain];
             if chain.iter().any(|&b| self.used[b]) {
                 continue;
@@ -385,7 +394,9 @@ impl GroupSearch<'_> {
             chain.iter().for_each(|&b| self.used[b] = false);
         }
         self.picks[depth] = None;
-        self.descend(depth + 1, cost + STRAY_COST);
+        if cost + STRAY_COST + rest < self.best_cost - 1e-12 {
+            self.descend(depth + 1, cost + STRAY_COST);
+        }
     }
 }
 

@@ -4,7 +4,7 @@
 //! by one accept step ([`Solver::accept`]): a quick fit, then a full one when it explains
 //! the strokes better.
 
-use super::assignment::{Candidates, STRAY_COST, assign, candidates};
+use super::assignment::{Candidates, STRAY_COST, candidates, complete_greedily};
 use super::chains::{Assignment, better_direction, stroke_length};
 use super::fitting::FULL_FIT_STEPS;
 use super::solver::{ChainFit, Solver};
@@ -156,7 +156,8 @@ fn trade_strays(solver: &mut Solver, fit: &mut ChainFit) -> bool {
             let mut excluded: Vec<bool> =
                 (0..strokes).map(|t| t != e && fixed[t].is_none()).collect();
             excluded[s] = true;
-            let trial = assign(&solver.setup, &solver.chains, &ranked, &fixed, &excluded);
+            let trial =
+                complete_greedily(&solver.setup, &solver.chains, &ranked, &fixed, &excluded);
             if trial[e].is_some() && solver.accept(trial, fit) {
                 improved = true;
                 ranked_now = None;
@@ -202,7 +203,8 @@ fn take_close_chains(solver: &mut Solver, fit: &mut ChainFit) -> bool {
                 }
             }
             let excluded: Vec<bool> = (0..strokes).map(|t| fit.assignment[t].is_none()).collect();
-            let trial = assign(&solver.setup, &solver.chains, &ranked, &fixed, &excluded);
+            let trial =
+                complete_greedily(&solver.setup, &solver.chains, &ranked, &fixed, &excluded);
             if trial != fit.assignment && solver.accept(trial, fit) {
                 improved = true;
                 break;
