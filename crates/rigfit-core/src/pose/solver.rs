@@ -231,6 +231,7 @@ impl<'a> Solver<'a> {
         let mut excluded = vec![false; strokes];
         let (mut assignment, placement_cost) = self.assign_now(&excluded);
         let mut layout = self.setup.layout(&self.setup.movable);
+        let mut refitted = false;
         for _round in 0..CHAIN_STEP_ROUNDS {
             if self.setup.interrupt.is_set() {
                 break;
@@ -252,7 +253,11 @@ impl<'a> Solver<'a> {
                 .filter(|&s| assignment[s].is_some())
                 .max_by(|&a, &b| residuals[a].total_cmp(&residuals[b]));
             match worst.filter(|&s| residuals[s] > stray) {
+                // Matched by shape, a limb far from its stroke may need more than one fit to
+                // get there: it gets one more before it is judged.
+                Some(_) if self.by_shape && !refitted => refitted = true,
                 Some(s) => {
+                    refitted = false;
                     excluded[s] = true;
                     self.fitter.pose = initial.clone();
                     assignment = self.assign_now(&excluded).0;
