@@ -186,15 +186,19 @@ fn shape_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) -> Op
 /// Each stroke's chain: strokes with a `fixed` chain keep it, `excluded` strokes stay set
 /// aside, the others are chosen together (or greedily, best first, without
 /// `global_assignment`) so that no bone is covered twice.
+///
+/// When the greedy assignment is `settled` (the one the pose was just fitted to), it is
+/// kept without a search: the fit has made it the obvious one.
 pub(super) fn assign(
     setup: &Setup,
     chains: &[Vec<usize>],
     candidates: &Candidates,
     fixed: &[Assignment],
     excluded: &[bool],
+    settled: Option<&[Assignment]>,
 ) -> Vec<Assignment> {
     let greedy = complete_greedily(setup, chains, candidates, fixed, excluded);
-    if !setup.options.global_assignment {
+    if !setup.options.global_assignment || settled == Some(greedy.as_slice()) {
         return greedy;
     }
     least_cost(setup, chains, candidates, fixed, excluded, greedy)

@@ -229,7 +229,7 @@ impl<'a> Solver<'a> {
         let stray = self.setup.options.stray_distance;
         let initial = self.fitter.pose.clone();
         let mut excluded = vec![false; strokes];
-        let (mut assignment, placement_cost) = self.assign_now(&excluded);
+        let (mut assignment, placement_cost) = self.assign_now(&excluded, None);
         let mut layout = self.setup.layout(&self.setup.movable);
         let mut refitted = false;
         for _round in 0..CHAIN_STEP_ROUNDS {
@@ -241,7 +241,7 @@ impl<'a> Solver<'a> {
                 .keep_unexplained_at_start(&self.setup, &assignment);
             self.fitter
                 .fit_arclength(&self.setup, &layout, &assignment, FULL_FIT_STEPS);
-            let (again, _) = self.assign_now(&excluded);
+            let (again, _) = self.assign_now(&excluded, Some(&assignment));
             if again != assignment {
                 assignment = again;
                 continue;
@@ -260,7 +260,7 @@ impl<'a> Solver<'a> {
                     refitted = false;
                     excluded[s] = true;
                     self.fitter.pose = initial.clone();
-                    assignment = self.assign_now(&excluded).0;
+                    assignment = self.assign_now(&excluded, None).0;
                 }
                 None => break,
             }
@@ -277,8 +277,13 @@ impl<'a> Solver<'a> {
     }
 
     /// The assignment of every stroke not `excluded` from the candidates at the current
-    /// pose, with its total cost (a stray at [`STRAY_COST`]).
-    fn assign_now(&self, excluded: &[bool]) -> (Vec<Assignment>, f64) {
+    /// pose (`settled`: the one just fitted, kept when greedy agrees), with its total cost
+    /// (a stray at [`STRAY_COST`]).
+    fn assign_now(
+        &self,
+        excluded: &[bool],
+        settled: Option<&[Assignment]>,
+    ) -> (Vec<Assignment>, f64) {
         let ranked = candidates(
             &self.setup,
             &self.fitter.pose,
@@ -292,6 +297,7 @@ impl<'a> Solver<'a> {
             &ranked,
             &vec![None; excluded.len()],
             excluded,
+            settled,
         );
         let cost = assignment_cost(&self.chains, &ranked, &assignment);
         (assignment, cost)
