@@ -5,7 +5,7 @@
 
 use super::annealing::{anneal, bones_by_weight, energy, schedule, settle};
 use super::assignment::{assign, assignment_cost, candidates};
-use super::chains::{Assignment, stroke_residuals};
+use super::chains::{Assignment, stroke_length, stroke_residuals};
 use super::fitting::{FULL_FIT_STEPS, Fitter};
 use super::local_moves::improve;
 use super::multi_start::rigid_placements;
@@ -17,6 +17,9 @@ use crate::skeleton::Pose;
 /// Weight of the mean squared joint rotation (radians) against the mean squared stroke
 /// residual (heights) when choosing among hypotheses.
 const HYPOTHESIS_BEND_WEIGHT: f64 = 2e-3;
+
+/// Weight of a stroke's squared length mismatch with its chain (heights) in the score.
+const LENGTH_SCORE_WEIGHT: f64 = 0.05;
 
 /// The longest chain of bones one stroke may cover.
 const MAX_CHAIN_BONES: usize = 24;
@@ -311,8 +314,16 @@ impl<'a> Solver<'a> {
         let stray = setup.options.stray_distance;
         let strokes = assignment.len();
         let residuals = stroke_residuals(setup, &self.fitter.pose, assignment);
+        let bones = &setup.model.bones;
         let data = (0..strokes)
-            .map(|s| match assignment[s] {
+            .map(|s| match &assignment[s] {
+                // Arclength matching stretches a chain over its stroke: a chain shorter or
+                // longer than the stroke fits as well unless its length is counted too.
+                Some((chain, _)) if !chain.iter().any(|&b| bones[b].tip_translates) => {
+                    let length: f64 = chain.iter().map(|&b| bones[b].length).sum();
+                    let mismatch = (stroke_length(setup, s) - length) / setup.height;
+                    residuals[s].powi(2) + LENGTH_SCORE_WEIGHT * mismatch * mismatch
+                }
                 Some(_) => residuals[s].powi(2),
                 None => stray * stray,
             })
