@@ -94,7 +94,13 @@ impl<'a> Solver<'a> {
         let opts = setup.options;
         let starts = match (opts.rigid_init, setup.root) {
             // Markers are placed by their strokes alone.
-            (true, Some(root)) if !setup.model.is_markers() => rigid_placements(setup, root),
+            (true, Some(root)) if !setup.model.is_markers() => {
+                // The character where it stands is a hypothesis too: a few strokes drawn on a
+                // character already in place say little about where the whole body is.
+                let mut placements = rigid_placements(setup, root);
+                placements.push(setup.start.clone());
+                placements
+            }
             _ => vec![setup.start.clone()],
         };
         let all = setup.layout(&setup.movable);
