@@ -18,4 +18,7 @@ pub mod sweep;
 
 pub use corpus::{Corpus, CorpusError, CorpusRig, Half, RigEntry, RigKind, StartPose};
 pub use scenario::{GeneratedCase, Scenario, TargetKind, case_seed, generate_case};
-pub use sweep::{Outcome, SUCCESS_MAX_ERROR, SUCCESS_MEAN_ERROR, SweepOptions, solve_case, sweep};
+pub use sweep::{
+    Outcome, SUCCESS_MAX_ERROR, SUCCESS_MEAN_ERROR, SweepOptions, pinned_to_markers, solve_case,
+    sweep,
+};

@@ -89,9 +89,10 @@ impl Outcome {
     }
 }
 
-/// A marker rig's strokes, each pinned to the markers it was drawn through (the solver
-/// refuses unpinned strokes on markers: nothing says which marker a stroke draws).
-fn pinned_to_markers(
+/// A marker rig's strokes, each pinned to the markers it was drawn through: every joint of
+/// its chain but the one the chain hangs from (the solver refuses unpinned strokes on
+/// markers: nothing says which marker a stroke draws). Strays stay unpinned.
+pub fn pinned_to_markers(
     skeleton: &rigfit_core::Skeleton,
     case: &rigfit_core::pose::cases::Case,
 ) -> Vec<rigfit_core::Stroke> {
@@ -101,14 +102,9 @@ fn pinned_to_markers(
         .map(|(stroke, chain)| {
             let mut pinned = stroke.clone();
             if !chain.is_empty() {
-                let parent = |j: usize| skeleton.joint(j).parent;
-                // Every joint of the chain but the one it hangs from.
                 let names = chain
                     .iter()
-                    .filter(|&&j| {
-                        !chain.iter().any(|&k| parent(k) == Some(j))
-                            || parent(j).is_some_and(|p| chain.contains(&p))
-                    })
+                    .filter(|&&j| skeleton.joint(j).parent.is_some_and(|p| chain.contains(&p)))
                     .map(|&j| skeleton.joint(j).name.clone())
                     .collect();
                 pinned.bones = Some(names);

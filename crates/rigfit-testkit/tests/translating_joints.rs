@@ -5,7 +5,7 @@
 
 use rigfit_core::JointDof;
 use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem, solve_pose};
-use rigfit_testkit::{Corpus, CorpusRig, Scenario, generate_case};
+use rigfit_testkit::{Corpus, CorpusRig, Scenario, generate_case, pinned_to_markers};
 
 fn corpus_rig(id: &str) -> CorpusRig {
     let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
@@ -77,22 +77,8 @@ fn pinned_strokes_move_markers_by_translation() {
     let markers = corpus_rig("markers-boxing_toes");
     let skeleton = &markers.rig.skeleton;
     let generated = generate_case(&markers, Scenario::LimbsOnly, 0);
-    // Each stroke pinned to the marker it was drawn to.
-    let strokes: Vec<_> = generated
-        .case
-        .strokes
-        .iter()
-        .zip(&generated.case.stroke_chains)
-        .map(|(stroke, chain)| {
-            let mut pinned = stroke.clone();
-            let marker = chain
-                .iter()
-                .find(|&&j| skeleton.joint(j).parent.is_some())
-                .expect("a stroke reaches a marker");
-            pinned.bones = Some(vec![skeleton.joint(*marker).name.clone()]);
-            pinned
-        })
-        .collect();
+    // Each stroke pinned to the marker it was drawn to, as the corpus sweep pins them.
+    let strokes = pinned_to_markers(skeleton, &generated.case);
     let problem = PoseProblem {
         skeleton,
         start: &markers.start,

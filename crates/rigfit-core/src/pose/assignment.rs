@@ -87,7 +87,8 @@ pub(super) fn candidates(
         if excluded[s] || setup.interrupt.is_set() {
             continue;
         }
-        let (stroke, stroke_length) = arclength_samples(setup.strokes.stroke(s));
+        let (stroke, stroke_length) = &setup.strokes.by_arclength[s];
+        let stroke_length = *stroke_length;
         for (c, chain) in chains.iter().enumerate() {
             if !setup.stroke_may_cover(s, chain) {
                 continue;
@@ -99,13 +100,13 @@ pub(super) fn candidates(
             }
             let length_cost = LENGTH_WEIGHT * mismatch.min(MAX_LENGTH_MISMATCH).powi(2);
             for reversed in [false, true] {
-                let near = distance_cost(&stroke, samples, reversed, h);
+                let near = distance_cost(stroke, samples, reversed, h);
                 // A pinned stroke keeps its chains however far they are.
                 let pinned = setup.strokes.allowed_bones[s].is_some();
                 // Where the chain attaches, then its distance now or its shape turned,
                 // whichever is less.
                 let cost = if by_shape {
-                    shape_cost(&stroke, samples, reversed, h)
+                    shape_cost(stroke, samples, reversed, h)
                         .map(|(attach, turned)| ATTACH_WEIGHT * attach + turned.min(near))
                         .or(pinned.then_some(near))
                 } else {
@@ -402,25 +403,4 @@ impl GroupSearch<'_> {
             self.descend(depth + 1, cost + STRAY_COST);
         }
     }
-}
-
-/// The total cost of `assignment` under `candidates` (a stray, or a chain that is not
-/// among the stroke's candidates, at [`STRAY_COST`]).
-pub(super) fn assignment_cost(
-    chains: &[Vec<usize>],
-    candidates: &Candidates,
-    assignment: &[Assignment],
-) -> f64 {
-    assignment
-        .iter()
-        .zip(candidates)
-        .map(|(a, list)| {
-            a.as_ref()
-                .and_then(|(chain, reversed)| {
-                    list.iter()
-                        .find(|c| chains[c.chain] == *chain && c.reversed == *reversed)
-                })
-                .map_or(STRAY_COST, |c| c.cost.min(STRAY_COST))
-        })
-        .sum()
 }

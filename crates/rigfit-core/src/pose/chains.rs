@@ -54,7 +54,7 @@ pub(super) fn arclength_samples(line: &[Point3]) -> (Vec<Point3>, f64) {
 
 /// The arclength of stroke `s` (after resampling).
 pub(super) fn stroke_length(setup: &Setup, s: usize) -> f64 {
-    *cumulative(setup.strokes.stroke(s)).last().unwrap_or(&0.0)
+    setup.strokes.by_arclength[s].1
 }
 
 /// Mean squared distance between a stroke's and a chain's arclength samples, the stroke
@@ -74,8 +74,8 @@ fn sample_distance(stroke: &[Point3], chain: &[Point3], reversed: bool) -> f64 {
 pub(super) fn better_direction(setup: &Setup, pose: &Pose, s: usize, chain: &[usize]) -> bool {
     let fk = ForwardKinematics::new(setup.skeleton, pose);
     let (line, _) = arclength_samples(&setup.model.chain_polyline(chain, &fk));
-    let (stroke, _) = arclength_samples(setup.strokes.stroke(s));
-    sample_distance(&stroke, &line, true) < sample_distance(&stroke, &line, false)
+    let stroke = &setup.strokes.by_arclength[s].0;
+    sample_distance(stroke, &line, true) < sample_distance(stroke, &line, false)
 }
 
 /// RMS distance (in heights) of each assigned stroke's points to its chain at the same
@@ -90,8 +90,8 @@ pub(super) fn stroke_residuals(setup: &Setup, pose: &Pose, assignment: &[Assignm
                 return 0.0;
             };
             let (line, _) = arclength_samples(&setup.model.chain_polyline(chain, &fk));
-            let (stroke, _) = arclength_samples(setup.strokes.stroke(s));
-            sample_distance(&stroke, &line, *reversed).sqrt() / setup.height
+            let stroke = &setup.strokes.by_arclength[s].0;
+            sample_distance(stroke, &line, *reversed).sqrt() / setup.height
         })
         .collect()
 }

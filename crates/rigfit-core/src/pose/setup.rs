@@ -7,6 +7,7 @@ use std::ops::Range;
 use super::PoseProblem;
 use super::beautify;
 use super::bones::BoneModel;
+use super::chains::arclength_samples;
 use super::options::{
     MAX_POSE_JOINTS, MAX_STROKE_DISTANCE, MAX_STROKE_POINTS, MAX_STROKES, PoseError, PoseOptions,
 };
@@ -25,6 +26,9 @@ pub(super) struct StrokeSamples {
     pub ranges: Vec<Range<usize>>,
     /// Per stroke: the bones it may match (`None` = any); strokes pinned to bones.
     pub allowed_bones: Vec<Option<Vec<bool>>>,
+    /// Per stroke: its samples evenly spaced in arclength (as chains are compared) and its
+    /// length, computed once.
+    pub by_arclength: Vec<(Vec<Point3>, f64)>,
 }
 
 impl StrokeSamples {
@@ -46,7 +50,16 @@ impl StrokeSamples {
             points,
             stroke_of,
             allowed_bones: self.allowed_bones.clone(),
+            // The strokes' shapes, measured on every sample (a thinned stroke may keep none).
+            by_arclength: self.by_arclength.clone(),
         }
+    }
+
+    /// Fills `by_arclength` from the samples.
+    fn measure(&mut self) {
+        self.by_arclength = (0..self.count())
+            .map(|s| arclength_samples(self.stroke(s)))
+            .collect();
     }
 }
 
@@ -297,5 +310,6 @@ fn sample_strokes(
         });
     }
     samples.ranges = ranges_of(&samples.stroke_of, problem.strokes.len());
+    samples.measure();
     Ok(samples)
 }

@@ -4,7 +4,7 @@
 //! step, the paper's annealing over all bones.
 
 use super::annealing::{anneal, bones_by_weight, energy, schedule, settle};
-use super::assignment::{assign, assignment_cost, candidates};
+use super::assignment::{assign, candidates};
 use super::chains::{Assignment, stroke_length, stroke_residuals};
 use super::fitting::{FULL_FIT_STEPS, Fitter};
 use super::local_moves::improve;
@@ -32,16 +32,6 @@ const MAX_LOCAL_SEARCH_TRIALS: usize = 1_000;
 /// Hypotheses (of the best-explained ones) that the local moves improve.
 const IMPROVED_HYPOTHESES: usize = 2;
 
-/// Weight of a hypothesis's placement cost against its score when hypotheses are ranked.
-const PLACEMENT_WEIGHT: f64 = 0.0;
-
-impl ChainFit {
-    /// How hypotheses are ranked: the fit's score and what it took to get there.
-    fn rank(&self) -> f64 {
-        self.score + PLACEMENT_WEIGHT * self.placement_cost
-    }
-}
-
 /// Rounds of the chain step (re-assignments and strays set aside).
 const CHAIN_STEP_ROUNDS: usize = 8;
 
@@ -49,10 +39,6 @@ const CHAIN_STEP_ROUNDS: usize = 8;
 #[derive(Clone)]
 pub(super) struct ChainFit {
     pub score: f64,
-    /// The mean cost of the first assignment, at the hypothesis's placement: how far the
-    /// limbs had to travel from it (the strokes alone often cannot tell a body from its
-    /// mirror image turned around).
-    pub placement_cost: f64,
     pub pose: Pose,
     pub assignment: Vec<Assignment>,
     pub layout: DofLayout,
@@ -142,18 +128,18 @@ impl<'a> Solver<'a> {
                 fits.push(self.chain_step());
             }
         }
-        fits.sort_by(|a, b| a.rank().total_cmp(&b.rank()));
+        fits.sort_by(|a, b| a.score.total_cmp(&b.score));
         // Hypotheses that converged to the same assignment are one.
         fits.dedup_by(|a, b| a.assignment == b.assignment);
-        let cutoff = fits.first().map_or(0.0, |f| 2.0 * f.rank());
+        let cutoff = fits.first().map_or(0.0, |f| 2.0 * f.score);
         let mut best: Option<ChainFit> = None;
         for fit in fits
             .into_iter()
-            .filter(|f| f.rank() <= cutoff)
+            .filter(|f| f.score <= cutoff)
             .take(IMPROVED_HYPOTHESES)
         {
             let fit = improve(&mut self, fit);
-            if best.as_ref().is_none_or(|b| fit.rank() < b.rank()) {
+            if best.as_ref().is_none_or(|b| fit.score < b.score) {
                 best = Some(fit);
             }
         }
@@ -238,7 +224,7 @@ impl<'a> Solver<'a> {
         let stray = self.setup.options.stray_distance;
         let initial = self.fitter.pose.clone();
         let mut excluded = vec![false; strokes];
-        let (mut assignment, placement_cost) = self.assign_now(&excluded, None);
+        let mut assignment = self.assign_now(&excluded, None);
         let mut layout = self.setup.layout(&self.setup.movable);
         let mut refitted = false;
         for _round in 0..CHAIN_STEP_ROUNDS {
@@ -250,7 +236,7 @@ impl<'a> Solver<'a> {
                 .keep_unexplained_at_start(&self.setup, &assignment);
             self.fitter
                 .fit_arclength(&self.setup, &layout, &assignment, FULL_FIT_STEPS);
-            let (again, _) = self.assign_now(&excluded, Some(&assignment));
+            let again = self.assign_now(&excluded, Some(&assignment));
             if again != assignment {
                 assignment = again;
                 continue;
@@ -269,7 +255,7 @@ impl<'a> Solver<'a> {
                     refitted = false;
                     excluded[s] = true;
                     self.fitter.pose = initial.clone();
-                    assignment = self.assign_now(&excluded, None).0;
+                    assignment = self.assign_now(&excluded, None);
                 }
                 None => break,
             }
@@ -277,7 +263,6 @@ impl<'a> Solver<'a> {
         let score = self.score(&assignment, &layout);
         ChainFit {
             score,
-            placement_cost: placement_cost / strokes.max(1) as f64,
             pose: self.fitter.pose.clone(),
             assignment,
             layout,
@@ -286,13 +271,8 @@ impl<'a> Solver<'a> {
     }
 
     /// The assignment of every stroke not `excluded` from the candidates at the current
-    /// pose (`settled`: the one just fitted, kept when greedy agrees), with its total cost
-    /// (a stray at [`STRAY_COST`]).
-    fn assign_now(
-        &self,
-        excluded: &[bool],
-        settled: Option<&[Assignment]>,
-    ) -> (Vec<Assignment>, f64) {
+    /// pose (`settled`: the one just fitted, kept when greedy agrees).
+    fn assign_now(&self, excluded: &[bool], settled: Option<&[Assignment]>) -> Vec<Assignment> {
         let ranked = candidates(
             &self.setup,
             &self.fitter.pose,
@@ -300,16 +280,14 @@ impl<'a> Solver<'a> {
             excluded,
             self.by_shape,
         );
-        let assignment = assign(
+        assign(
             &self.setup,
             &self.chains,
             &ranked,
             &vec![None; excluded.len()],
             excluded,
             settled,
-        );
-        let cost = assignment_cost(&self.chains, &ranked, &assignment);
-        (assignment, cost)
+        )
     }
 
     /// How well the current pose explains the strokes under `assignment`: the mean squared
