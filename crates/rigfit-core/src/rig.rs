@@ -11,6 +11,15 @@ const Z_UP_RATIO: f64 = 0.6;
 /// An animated translation further than this share of the height from the joint's rest
 /// translation moves the joint.
 const TRANSLATION_TOLERANCE: f64 = 1e-4;
+
+/// A leaf joint gets a tip from its skin when the vertices it dominates lie to one side of
+/// it: their centroid at least this share of their farthest distance from the joint.
+const TIP_SIDEDNESS: f64 = 0.25;
+
+/// ... and the tip is at least this share of the skin's size (its bounding box's largest
+/// side at bind time) from the joint.
+const TIP_MIN_LENGTH: f64 = 0.02;
+
 use crate::skinning::SkinnedMesh;
 
 /// Everything a rig file holds that rigfit works with.
@@ -103,13 +112,152 @@ impl Rig {
         freed
     }
 
-    /// Indices of joints that are reported to users (skin joints and end sites).
+    /// Gives every leaf skin joint whose skin hangs to one side of it (a limb box of a
+    /// game character, a head, a tail tip) an end site at the far end of that skin, as a
+    /// BVH `End Site` gives the last bone of a chain its length: without one the leaf
+    /// bone has no extent to draw a stroke along or to fit. The tip lies along the
+    /// centroid of the vertices the joint dominates (largest weight), as far as the
+    /// farthest of them along that direction (bind pose). Tips are named `NAME_end`, of
+    /// kind [`JointKind::SkinTip`] (fixed, never reported), and appended after the
+    /// existing joints (indices unchanged).
+    /// Returns how many were added.
+    pub fn tip_skinned_leaves(&mut self) -> usize {
+        // The size of the skin as modelled (bind pose), not as the stored pose bends it.
+        let bind_points: Vec<Point3> = self
+            .meshes
+            .iter()
+            .flat_map(|m| m.positions.iter().copied())
+            .collect();
+        let size = Aabb::from_points(&bind_points).map_or(0.0, |b| b.extent().max());
+        let joints = self.skeleton.len();
+        // Per joint: the vertices it dominates, in its bind frame.
+        let mut dominated: Vec<Vec<Point3>> = vec![Vec::new(); joints];
+        for mesh in &self.meshes {
+            for (v, position) in mesh.positions.iter().enumerate() {
+                let (Some(influences), Some(weights)) = (mesh.joints.get(v), mesh.weights.get(v))
+                else {
+                    continue;
+                };
+                let best = (0..4).max_by(|&a, &b| weights[a].total_cmp(&weights[b]));
+                let Some(k) = best.filter(|&k| weights[k] > 0.0) else {
+                    continue;
+                };
+                let j = influences[k] as usize;
+                if j < joints {
+                    let bind = mesh.inverse_bind.get(j).copied().unwrap_or_default();
+                    dominated[j].push(crate::math::transform_point(&bind, position));
+                }
+            }
+        }
+        // Where each joint was at bind time (the frame its skin was modelled in; a file's
+        // stored pose may be any pose), from the inverse bind matrices.
+        let mut bind_world: Vec<Option<crate::math::Matrix4>> = vec![None; joints];
+        for mesh in &self.meshes {
+            for (j, inverse) in mesh.inverse_bind.iter().enumerate().take(joints) {
+                if bind_world[j].is_none() && *inverse != crate::math::Matrix4::identity() {
+                    bind_world[j] = inverse.try_inverse();
+                }
+            }
+        }
+        let at = |m: &crate::math::Matrix4| Point3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]);
+        let mut added = Vec::new();
+        for (j, points) in dominated.iter().enumerate() {
+            let joint = self.skeleton.joint(j);
+            if joint.kind != JointKind::Skin || !self.skeleton.children(j).is_empty() {
+                continue;
+            }
+            let Some(tip) = skin_tip(points, TIP_MIN_LENGTH * size) else {
+                continue;
+            };
+            // A flat hierarchy (every joint of a hand a child of the wrist) makes leaves of
+            // joints whose bone runs to another joint: no tip where one would run into a
+            // joint that is not its ancestor.
+            let Some(frame) = bind_world[j] else {
+                continue;
+            };
+            let (from, to) = (
+                at(&frame),
+                crate::math::transform_point(&frame, &Point3::from(tip)),
+            );
+            let runs_into_joint = (0..joints).any(|k| {
+                k != j
+                    && !self.skeleton.is_ancestor_or_self(k, j)
+                    && bind_world[k].is_some_and(|m| near_segment(&at(&m), &from, &to))
+            });
+            if !runs_into_joint {
+                added.push((j, tip));
+            }
+        }
+        if added.is_empty() {
+            return 0;
+        }
+        let mut all = self.skeleton.joints().to_vec();
+        for &(j, tip) in &added {
+            let base = format!("{}_end", all[j].name);
+            let mut name = base.clone();
+            let mut n = 1;
+            while all.iter().any(|other| other.name == name) {
+                n += 1;
+                name = format!("{base}{n}");
+            }
+            let mut end =
+                crate::skeleton::Joint::new(name, Some(j), crate::math::Trs::from_translation(tip));
+            end.kind = JointKind::SkinTip;
+            end.dof = JointDof::Fixed;
+            self.pose.local.push(end.rest);
+            all.push(end);
+        }
+        self.skeleton = Skeleton::new(all).expect("end sites appended after their parents");
+        for mesh in &mut self.meshes {
+            mesh.inverse_bind
+                .resize(self.skeleton.len(), crate::math::Matrix4::identity());
+        }
+        added.len()
+    }
+
+    /// Indices of joints that are reported to users (skin joints and end sites; not helpers
+    /// or tips found from the skin, which are not in the file).
     pub fn reported_joints(&self) -> impl Iterator<Item = usize> + '_ {
         self.skeleton
             .joints()
             .iter()
             .enumerate()
-            .filter(|(_, j)| j.kind != JointKind::Helper)
+            .filter(|(_, j)| !matches!(j.kind, JointKind::Helper | JointKind::SkinTip))
             .map(|(i, _)| i)
     }
+}
+
+/// The tip of a leaf bone whose skin is `points` (in the joint's bind frame): along the
+/// points' centroid, as far as the farthest point along it. `None` when the points do not
+/// lie to one side of the joint or the tip is shorter than `min_length`.
+fn skin_tip(points: &[Point3], min_length: f64) -> Option<Vector3> {
+    if points.len() < 3 {
+        return None;
+    }
+    let centroid = points.iter().map(|p| p.coords).sum::<Vector3>() / points.len() as f64;
+    let farthest = points.iter().map(|p| p.coords.norm()).fold(0.0, f64::max);
+    if centroid.norm() < TIP_SIDEDNESS * farthest {
+        return None;
+    }
+    let direction = centroid.try_normalize(1e-300)?;
+    let length = points
+        .iter()
+        .map(|p| p.coords.dot(&direction))
+        .fold(0.0, f64::max);
+    (length >= min_length && length > 0.0).then(|| direction * length)
+}
+
+/// Whether `p` lies along the segment from `from` to `to`: past its first quarter and
+/// within a third of its length of it.
+fn near_segment(p: &Point3, from: &Point3, to: &Point3) -> bool {
+    let along = to - from;
+    let length = along.norm();
+    if length <= 0.0 {
+        return false;
+    }
+    let t = (p - from).dot(&along) / (length * length);
+    if !(TIP_SIDEDNESS..=1.2).contains(&t) {
+        return false;
+    }
+    (p - (from + along * t.min(1.0))).norm() < length / 3.0
 }

@@ -13,6 +13,17 @@ pub enum JointKind {
     Helper,
     /// A BVH `End Site`: a fixed point at the tip of a chain.
     EndSite,
+    /// The tip of a leaf bone found from its skin ([`crate::Rig::tip_skinned_leaves`]):
+    /// fixed like an end site and drawn and fitted as one, but not in the file, so never
+    /// reported or written.
+    SkinTip,
+}
+
+impl JointKind {
+    /// A fixed point at the tip of a chain: an end site, or a tip found from the skin.
+    pub fn is_tip(self) -> bool {
+        matches!(self, JointKind::EndSite | JointKind::SkinTip)
+    }
 }
 
 /// The degrees of freedom a solver may move at a joint. Rotations are increments applied in
@@ -264,6 +275,27 @@ impl Skeleton {
         None
     }
 
+    /// For every joint, whether it is a helper that links the skin together: a node below
+    /// the skin root with skin joints or end sites below it (a hip or shoulder node between
+    /// the body and a limb). Such links are bones of the character; helper leaves (IK
+    /// goals, weapon sockets) and helpers above the root are not.
+    pub fn linking_helpers(&self) -> Vec<bool> {
+        let mut skin_below = vec![false; self.len()];
+        for j in (0..self.len()).rev() {
+            if let Some(p) = self.joints[j].parent {
+                skin_below[p] |= skin_below[j] || self.joints[j].kind != JointKind::Helper;
+            }
+        }
+        let under = self.skin_root().map(|r| self.subtree_mask(r));
+        (0..self.len())
+            .map(|j| {
+                self.joints[j].kind == JointKind::Helper
+                    && skin_below[j]
+                    && under.as_ref().is_some_and(|u| u[j])
+            })
+            .collect()
+    }
+
     /// For every joint, whether `ancestor` is it or one of its ancestors (one pass).
     pub fn subtree_mask(&self, ancestor: usize) -> Vec<bool> {
         let mut mask = vec![false; self.len()];
@@ -284,7 +316,7 @@ impl Skeleton {
             let under_root = under.as_ref().is_none_or(|u| u[i]);
             let dof = if Some(i) == root || (root.is_none() && j.parent.is_none()) {
                 JointDof::Free
-            } else if j.kind == JointKind::EndSite || !under_root {
+            } else if j.kind.is_tip() || !under_root {
                 JointDof::Fixed
             } else {
                 JointDof::Ball

@@ -264,7 +264,7 @@ impl PySkeleton {
     fn end_sites(&self) -> Vec<bool> {
         self.order
             .iter()
-            .map(|&k| self.skeleton.joint(k).kind == JointKind::EndSite)
+            .map(|&k| self.skeleton.joint(k).kind.is_tip())
             .collect()
     }
 

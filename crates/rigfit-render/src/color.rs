@@ -84,7 +84,7 @@ pub fn chain_colors(skeleton: &Skeleton) -> Vec<Color> {
                 && skeleton
                     .children(p)
                     .iter()
-                    .filter(|&&c| skeleton.joint(c).kind != JointKind::EndSite)
+                    .filter(|&&c| !skeleton.joint(c).kind.is_tip())
                     .count()
                     <= 1
         });

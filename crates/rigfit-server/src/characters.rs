@@ -88,7 +88,7 @@ fn kind_name(kind: JointKind) -> &'static str {
     match kind {
         JointKind::Skin => "skin",
         JointKind::Helper => "helper",
-        JointKind::EndSite => "end_site",
+        JointKind::EndSite | JointKind::SkinTip => "end_site",
     }
 }
 

@@ -16,6 +16,8 @@ pub struct Summary {
     pub scenario: Scenario,
     pub cases: usize,
     pub successes: usize,
+    /// Failures whose result fits the strokes as well as the truth ([`Outcome::ambiguous`]).
+    pub ambiguous: usize,
     /// The mean over cases of each case's mean drawn-joint error (failed solves left out).
     pub mean_of_means: f64,
     /// The largest drawn-joint error of any case.
@@ -30,6 +32,15 @@ impl Summary {
             0.0
         } else {
             self.successes as f64 / self.cases as f64
+        }
+    }
+
+    /// The share of cases that failed on an ambiguous drawing.
+    pub fn ambiguous_rate(&self) -> f64 {
+        if self.cases == 0 {
+            0.0
+        } else {
+            self.ambiguous as f64 / self.cases as f64
         }
     }
 
@@ -52,6 +63,7 @@ impl Summary {
             scenario,
             cases: outcomes.len(),
             successes: outcomes.iter().filter(|o| o.success()).count(),
+            ambiguous: outcomes.iter().filter(|o| o.ambiguous()).count(),
             mean_of_means: if finite.is_empty() {
                 f64::INFINITY
             } else {
@@ -120,18 +132,27 @@ pub fn text_table(summaries: &[Summary]) -> String {
         .unwrap_or(3)
         .max(3);
     let mut out = format!(
-        "{:width$}  {:8}  {:11}  {:>5}  {:>9}  {:>10}  {:>9}  {:>9}\n",
-        "rig", "half", "scenario", "cases", "success%", "mean err%", "worst max%", "median ms"
+        "{:width$}  {:8}  {:11}  {:>5}  {:>9}  {:>10}  {:>10}  {:>9}  {:>9}\n",
+        "rig",
+        "half",
+        "scenario",
+        "cases",
+        "success%",
+        "ambiguous%",
+        "mean err%",
+        "worst max%",
+        "median ms"
     );
     for s in summaries {
         let _ = writeln!(
             out,
-            "{:width$}  {:8}  {:11}  {:>5}  {:>9.1}  {:>10}  {:>9}  {:>9.1}",
+            "{:width$}  {:8}  {:11}  {:>5}  {:>9.1}  {:>10.1}  {:>10}  {:>9}  {:>9.1}",
             s.rig,
             s.half.name(),
             s.scenario.name(),
             s.cases,
             100.0 * s.success_rate(),
+            100.0 * s.ambiguous_rate(),
             percent(s.mean_of_means),
             percent(s.worst_max),
             s.median_ms,
@@ -143,18 +164,19 @@ pub fn text_table(summaries: &[Summary]) -> String {
 /// A Markdown table of summaries, ready for BENCHMARKS.md.
 pub fn markdown_table(summaries: &[Summary]) -> String {
     let mut out = String::from(
-        "| rig | half | scenario | cases | success | mean error | worst max error | median ms |\n\
-         |---|---|---|---:|---:|---:|---:|---:|\n",
+        "| rig | half | scenario | cases | success | ambiguous | mean error | worst max error | median ms |\n\
+         |---|---|---|---:|---:|---:|---:|---:|---:|\n",
     );
     for s in summaries {
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {} | {:.0}% | {}% | {}% | {:.1} |",
+            "| {} | {} | {} | {} | {:.0}% | {:.0}% | {}% | {}% | {:.1} |",
             s.rig,
             s.half.name(),
             s.scenario.name(),
             s.cases,
             100.0 * s.success_rate(),
+            100.0 * s.ambiguous_rate(),
             percent(s.mean_of_means),
             percent(s.worst_max),
             s.median_ms,
@@ -178,11 +200,14 @@ pub fn worst_table(cases: &[&Outcome]) -> String {
         let result = match &o.failure {
             Some(failure) => format!("solve failed: {failure}"),
             None => format!(
-                "mean {}%  max {}% at {}  undrawn motion {}%",
+                "mean {}%  max {}% at {}  undrawn motion {}%  misfit {}% (truth {}%){}",
                 percent(o.mean_error),
                 percent(o.max_error),
                 o.worst_joint,
-                percent(o.undrawn_motion)
+                percent(o.undrawn_motion),
+                percent(o.misfit),
+                percent(o.truth_misfit),
+                if o.ambiguous() { "  ambiguous" } else { "" }
             ),
         };
         let _ = writeln!(

@@ -15,6 +15,10 @@ pub const SUCCESS_MEAN_ERROR: f64 = 0.03;
 /// ...and no drawn joint is further than this fraction of the height from the truth.
 pub const SUCCESS_MAX_ERROR: f64 = 0.10;
 
+/// A failed case whose result fits the strokes within this fraction of the height of how
+/// well the true pose fits them is an ambiguous drawing, not a search failure.
+pub const AMBIGUITY_TOLERANCE: f64 = 0.005;
+
 /// What to sweep.
 #[derive(Clone, Debug)]
 pub struct SweepOptions {
@@ -69,6 +73,11 @@ pub struct Outcome {
     pub seconds: f64,
     /// The solver's error when it refused the case.
     pub failure: Option<String>,
+    /// How far the result's drawn chains are from the strokes ([`stroke_misfit`]), and
+    /// how far the truth's are: a result that fits as well as the truth and still fails
+    /// found another pose the strokes draw as well (a mirror image turned around).
+    pub misfit: f64,
+    pub truth_misfit: f64,
 }
 
 impl Outcome {
@@ -87,6 +96,70 @@ impl Outcome {
         }
         (self.mean_error / SUCCESS_MEAN_ERROR).max(self.max_error / SUCCESS_MAX_ERROR)
     }
+
+    /// A failure whose result fits the strokes as well as the truth does: the strokes do
+    /// not tell the two poses apart.
+    pub fn ambiguous(&self) -> bool {
+        self.failure.is_none()
+            && !self.success()
+            && self.misfit <= self.truth_misfit + AMBIGUITY_TOLERANCE
+    }
+}
+
+/// How far a pose's drawn chains are from the strokes drawn on them, in heights: the mean
+/// distance of the drawn strokes' points from the nearest bone of a drawn chain, plus the
+/// mean distance of the drawn joints from the nearest drawn stroke point. Labels play no
+/// part: a pose whose limbs trade places scores as the true one does.
+pub fn stroke_misfit(
+    skeleton: &rigfit_core::Skeleton,
+    pose: &rigfit_core::Pose,
+    case: &rigfit_core::pose::cases::Case,
+    height: f64,
+) -> f64 {
+    let positions = skeleton.joint_positions(pose);
+    let segments: Vec<(rigfit_core::Point3, rigfit_core::Point3)> = case
+        .stroke_chains
+        .iter()
+        .flat_map(|chain| chain.windows(2).map(|w| (positions[w[0]], positions[w[1]])))
+        .collect();
+    let points: Vec<&rigfit_core::Point3> = case
+        .strokes
+        .iter()
+        .zip(&case.stroke_chains)
+        .filter(|(_, chain)| !chain.is_empty())
+        .flat_map(|(stroke, _)| &stroke.points)
+        .collect();
+    if segments.is_empty() || points.is_empty() {
+        return 0.0;
+    }
+    let to_segment = |p: &rigfit_core::Point3,
+                      (a, b): &(rigfit_core::Point3, rigfit_core::Point3)| {
+        let ab = b - a;
+        let t = ((p - a).dot(&ab) / ab.norm_squared().max(1e-300)).clamp(0.0, 1.0);
+        (p - (a + ab * t)).norm()
+    };
+    let stroke_side = points
+        .iter()
+        .map(|p| {
+            segments
+                .iter()
+                .map(|s| to_segment(p, s))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .sum::<f64>()
+        / points.len() as f64;
+    let joint_side = case
+        .drawn_joints
+        .iter()
+        .map(|&j| {
+            points
+                .iter()
+                .map(|p| (*p - positions[j]).norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .sum::<f64>()
+        / case.drawn_joints.len().max(1) as f64;
+    (stroke_side + joint_side) / height.max(1e-300)
 }
 
 /// A marker rig's strokes, each pinned to the markers it was drawn through: every joint of
@@ -153,6 +226,8 @@ pub fn solve_case(
         undrawn_motion: 0.0,
         seconds,
         failure: None,
+        misfit: f64::INFINITY,
+        truth_misfit: stroke_misfit(skeleton, &generated.truth, &generated.case, rig.height),
     };
     match result {
         Ok(result) => {
@@ -163,6 +238,7 @@ pub fn solve_case(
                 &generated.case.drawn_joints,
                 rig.height,
             );
+            outcome.misfit = stroke_misfit(skeleton, &result.pose, &generated.case, rig.height);
             outcome.mean_error = errors.mean;
             outcome.max_error = errors.max;
             outcome.worst_joint = errors

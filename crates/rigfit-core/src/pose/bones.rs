@@ -50,7 +50,7 @@ pub struct BoneModel {
 impl BoneModel {
     /// Samples every bone longer than `min_length` with points about `spacing` apart, in the
     /// configuration `pose`. Bones are segments from a joint under the character's root to
-    /// a skin joint or an end site.
+    /// a skin joint, an end site or a helper that links skin joints below it.
     pub fn new(skeleton: &Skeleton, pose: &Pose, spacing: f64, min_length: f64) -> Self {
         let fk = ForwardKinematics::new(skeleton, pose);
         let under_root: Vec<bool> = match skeleton.skin_root() {
@@ -59,6 +59,7 @@ impl BoneModel {
                 .map(|j| j.kind != JointKind::Helper)
                 .collect(),
         };
+        let linking = skeleton.linking_helpers();
         // Each joint's anchor: itself, or the first ancestor reached through zero-length links.
         let mut anchor: Vec<usize> = (0..skeleton.len()).collect();
         for j in 0..skeleton.len() {
@@ -75,7 +76,7 @@ impl BoneModel {
             let Some(j) = skeleton.joint(c).parent else {
                 continue;
             };
-            if skeleton.joint(c).kind == JointKind::Helper || !under_root[j] {
+            if (skeleton.joint(c).kind == JointKind::Helper && !linking[c]) || !under_root[j] {
                 continue;
             }
             let (a, b) = (fk.position(j), fk.position(c));

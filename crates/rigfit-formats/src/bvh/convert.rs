@@ -223,8 +223,26 @@ impl BvhDocument {
     /// joints (glTF armature nodes) are ordinary joints. BVH has no scale: uniform scales
     /// are folded into the translations below them (exact), other scales are dropped with a
     /// warning. The document keeps the skeleton's joint order, so its joint `i` is the
-    /// skeleton's joint `i` (the file is written depth first).
+    /// skeleton's joint `i` (the file is written depth first). Tips found from a skin
+    /// ([`JointKind::SkinTip`], appended after the file's joints) are not written.
     pub fn from_skeleton(skeleton: &Skeleton, poses: &[Pose], frame_time: f64) -> BvhDocument {
+        let in_file = skeleton
+            .joints()
+            .iter()
+            .position(|j| j.kind == JointKind::SkinTip)
+            .unwrap_or(skeleton.len());
+        if in_file < skeleton.len() && in_file > 0 {
+            let joints = skeleton.joints()[..in_file].to_vec();
+            if let Ok(trimmed) = Skeleton::new(joints) {
+                let poses: Vec<Pose> = poses
+                    .iter()
+                    .map(|p| Pose {
+                        local: p.local.iter().take(in_file).copied().collect(),
+                    })
+                    .collect();
+                return Self::from_skeleton(&trimmed, &poses, frame_time);
+            }
+        }
         let (rest, mut inexact_scale) = fold_scale(skeleton, &skeleton.rest_pose());
         let folded: Vec<Pose> = poses
             .iter()
@@ -240,7 +258,7 @@ impl BvhDocument {
             .enumerate()
             .map(|(i, joint)| {
                 let offset = rest.local[i].translation;
-                let end_site = joint.kind == JointKind::EndSite && skeleton.children(i).is_empty();
+                let end_site = joint.kind.is_tip() && skeleton.children(i).is_empty();
                 let mut channels = Vec::new();
                 if !end_site {
                     let moves = joint.parent.is_none()

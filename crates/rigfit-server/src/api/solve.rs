@@ -205,7 +205,7 @@ fn answer_joints(rig: &rigfit_core::Rig, pose: &rigfit_core::Pose) -> Vec<Value>
                 "rotation": rigfit_core::animation::quat_to_xyzw(&local.rotation),
                 "translation": [t.x, t.y, t.z],
             });
-            if joint.kind == rigfit_core::JointKind::EndSite {
+            if joint.kind.is_tip() {
                 value["end_site"] = json!(true);
             }
             value

@@ -35,10 +35,12 @@ pub enum Coverage {
 
 /// The limb chains of a skeleton: from the character's root or a branching joint, through
 /// joints with one child, to a leaf or the next branching joint. Helpers above the root are
-/// skipped as the posing model skips them; zero-length links stay in their chain.
+/// skipped as the posing model skips them; helper nodes below it (a hip or shoulder node
+/// between the body and a limb) are links of their chain, as zero-length links are.
 pub fn limb_chains(skeleton: &Skeleton) -> Vec<Vec<usize>> {
     let root = skeleton.skin_root();
-    let included = |j: usize| skeleton.joint(j).kind != JointKind::Helper;
+    let linking = skeleton.linking_helpers();
+    let included = |j: usize| skeleton.joint(j).kind != JointKind::Helper || linking[j];
     let children = |j: usize| -> Vec<usize> {
         skeleton
             .children(j)

@@ -13,6 +13,11 @@ use crate::skeleton::{JointDof, JointKind, Pose, Skeleton};
 /// at the next joint when it is shorter than this fraction of the next bone.
 const SHORT_LINK_RATIO: f64 = 0.75;
 
+/// A chain of up to this many turning joints bends each by up to the full `bend`; in a
+/// longer one (a spine of many vertebrae, a tail) the joints share that budget, so a
+/// 30-vertebra tail curls about as far as a 4-joint one instead of tying a knot.
+const BEND_SHARED_JOINTS: f64 = 4.0;
+
 /// How far random target poses go from the start pose. Angles are in radians, lengths
 /// fractions of the height.
 #[derive(Clone, Debug, PartialEq)]
@@ -276,6 +281,7 @@ fn random_bends(
         is_limb_root[j] = true;
     }
     let ranges = translation_ranges(animations, skeleton.len());
+    let bend_share = bend_shares(skeleton);
     let mut pose = start.clone();
     for (j, joint) in skeleton.joints().iter().enumerate() {
         let below_root =
@@ -287,7 +293,7 @@ fn random_bends(
             let max_angle = if is_limb_root[j] {
                 options.limb_turn
             } else {
-                options.bend
+                options.bend * bend_share[j]
             };
             let mut rotation = pose.local[j].rotation * random_rotation(max_angle, rng);
             if let Some(limits) = &joint.limits {
@@ -307,6 +313,24 @@ fn random_bends(
         }
     }
     pose
+}
+
+/// Each joint's share of a chain's bend budget: 1 in a chain of at most
+/// [`BEND_SHARED_JOINTS`] turning joints, less in longer ones.
+fn bend_shares(skeleton: &Skeleton) -> Vec<f64> {
+    let mut share = vec![1.0; skeleton.len()];
+    for chain in limb_chains(skeleton) {
+        let turning: Vec<usize> = chain[1..]
+            .iter()
+            .copied()
+            .filter(|&j| matches!(skeleton.joint(j).dof, JointDof::Ball | JointDof::Free))
+            .collect();
+        let part = (BEND_SHARED_JOINTS / turning.len().max(1) as f64).min(1.0);
+        for j in turning {
+            share[j] = part;
+        }
+    }
+    share
 }
 
 /// Turns the whole character (its root joint, about itself) by up to `options.heading`

@@ -419,3 +419,47 @@ fn far_poses_move_translating_joints_within_their_range() {
     }
     assert!(moved);
 }
+
+#[test]
+fn long_chains_share_their_bend() {
+    // A tail of 20 vertebrae hanging from the hips: each bends a fifth as far as an arm
+    // joint may, so the whole tail curls about as far as a four-joint limb.
+    let tail: Vec<(String, String, [f64; 3])> = (0..20)
+        .map(|k| {
+            let parent = if k == 0 {
+                "Hips".to_string()
+            } else {
+                format!("Tail{}", k - 1)
+            };
+            (format!("Tail{k}"), parent, [0.0, 0.0, -0.04])
+        })
+        .collect();
+    let extra: Vec<(&str, &str, [f64; 3])> = tail
+        .iter()
+        .map(|(n, p, o)| (n.as_str(), p.as_str(), *o))
+        .collect();
+    let rig = humanoid_with(&extra);
+    let skeleton = &rig.skeleton;
+    let options = FarPoseOptions::default();
+    let vertebra = skeleton.find("Tail10").expect("Tail10");
+    let elbow = skeleton.find("LeftForeArm").expect("LeftForeArm");
+    let (mut tail_max, mut elbow_max) = (0.0f64, 0.0f64);
+    for seed in 0..20 {
+        let pose = far_pose(
+            skeleton,
+            &rig.pose,
+            &[],
+            1.75,
+            &options,
+            &mut StdRng::seed_from_u64(seed),
+        );
+        let turn = |j: usize| rig.pose.local[j].rotation.angle_to(&pose.local[j].rotation);
+        tail_max = tail_max.max(turn(vertebra));
+        elbow_max = elbow_max.max(turn(elbow));
+    }
+    assert!(
+        tail_max <= options.bend / 5.0 + 1e-9,
+        "vertebra bent {tail_max}"
+    );
+    assert!(elbow_max > options.bend / 2.0, "elbow bent {elbow_max}");
+}

@@ -1,0 +1,143 @@
+//! One corpus case as a picture: the true pose, the start pose and the solver's result,
+//! the strokes over each in the colour of the bones they were matched to (strays grey).
+//!
+//! ```text
+//! cargo run --release -p rigfit-testkit --example pose_case -- \
+//!     --rig ID --scenario NAME --case I [--out FILE.png]
+//! ```
+//! Prints the case's errors and each stroke's matched bones beside the chain it was drawn
+//! from.
+
+use std::process::ExitCode;
+
+use rigfit_core::pose::cases::joint_errors;
+use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
+use rigfit_render::{RenderOptions, Scene, chain_colors, render_side_by_side, stroke_colors};
+use rigfit_testkit::corpus::RigKind;
+use rigfit_testkit::sweep::pinned_to_markers;
+use rigfit_testkit::{Corpus, Scenario, generate_case};
+
+fn run() -> Result<(), String> {
+    let mut rig_id = None;
+    let mut scenario = Scenario::EveryChain;
+    let mut index = 0usize;
+    let mut out = std::path::PathBuf::from("pose_case.png");
+    let mut it = std::env::args().skip(1);
+    while let Some(flag) = it.next() {
+        let value = it.next().ok_or_else(|| format!("{flag} needs a value"))?;
+        match flag.as_str() {
+            "--rig" => rig_id = Some(value),
+            "--scenario" => {
+                scenario = Scenario::from_name(&value)
+                    .ok_or_else(|| format!("--scenario: '{value}' is not a scenario"))?
+            }
+            "--case" => {
+                index = value
+                    .parse()
+                    .map_err(|_| format!("--case: '{value}' is not a count"))?
+            }
+            "--out" => out = value.into(),
+            other => return Err(format!("unknown flag {other}")),
+        }
+    }
+    let rig_id = rig_id.ok_or("--rig is required")?;
+    let corpus = Corpus::load().map_err(|e| e.to_string())?;
+    let entry = corpus
+        .entry(&rig_id)
+        .ok_or_else(|| format!("no rig {rig_id} in the corpus"))?;
+    let rig = corpus.read_rig(entry).map_err(|e| e.to_string())?;
+    let generated = generate_case(&rig, scenario, index);
+    let skeleton = &rig.rig.skeleton;
+    let strokes = if rig.entry.kind == RigKind::Marker {
+        pinned_to_markers(skeleton, &generated.case)
+    } else {
+        generated.case.strokes.clone()
+    };
+    let problem = PoseProblem {
+        skeleton,
+        start: &rig.start,
+        strokes: &strokes,
+        movable: None,
+        height: rig.height,
+    };
+    let result = solve_pose(&problem, &PoseOptions::default()).map_err(|e| e.to_string())?;
+    let errors = joint_errors(
+        skeleton,
+        &result.pose,
+        &generated.truth,
+        &generated.case.drawn_joints,
+        rig.height,
+    );
+    println!(
+        "{rig_id} {} case {index} ({} target): mean {:.2}%, max {:.2}% at {}",
+        scenario.name(),
+        generated.target.name(),
+        100.0 * errors.mean,
+        100.0 * errors.max,
+        errors
+            .worst
+            .map_or("-", |j| skeleton.joint(j).name.as_str())
+    );
+    let name = |bones: &[usize]| {
+        bones
+            .iter()
+            .map(|&j| skeleton.joint(j).name.as_str())
+            .collect::<Vec<_>>()
+            .join(">")
+    };
+    for (i, (drawn, matched)) in generated
+        .case
+        .stroke_chains
+        .iter()
+        .zip(&result.stroke_bones)
+        .enumerate()
+    {
+        let verdict = if drawn.is_empty() && matched.is_empty() {
+            "ok (stray)"
+        } else if drawn.iter().any(|j| matched.contains(j)) {
+            "ok"
+        } else {
+            "WRONG"
+        };
+        println!(
+            "  stroke {i}: drawn [{}] matched [{}] {verdict}",
+            name(drawn),
+            name(matched)
+        );
+    }
+    let joint_colors = chain_colors(skeleton);
+    let colors = stroke_colors(&result.stroke_bones, &joint_colors);
+    let truth_colors = stroke_colors(&generated.case.stroke_chains, &joint_colors);
+    let panel = |pose: &rigfit_core::Pose, colors: &[rigfit_render::Color]| {
+        let mut scene = Scene::new();
+        scene
+            .add_skeleton(skeleton, pose)
+            .add_strokes(&strokes, colors);
+        scene
+    };
+    let truth = panel(&generated.truth, &truth_colors);
+    let start = panel(&rig.start, &colors);
+    let posed = panel(&result.pose, &colors);
+    let options = RenderOptions {
+        tile: 300,
+        ..RenderOptions::default()
+    };
+    let image = render_side_by_side(
+        &[("truth", &truth), ("start", &start), ("result", &posed)],
+        &options,
+    );
+    let png = image.png().map_err(|e| e.to_string())?;
+    std::fs::write(&out, png).map_err(|e| format!("{}: {e}", out.display()))?;
+    println!("picture: {}", out.display());
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("pose_case: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
