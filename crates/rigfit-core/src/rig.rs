@@ -119,8 +119,9 @@ impl Rig {
     /// centroid of the vertices the joint dominates (largest weight), as far as the
     /// farthest of them along that direction (bind pose). Tips are named `NAME_end`, of
     /// kind [`JointKind::SkinTip`] (fixed, never reported), and appended after the
-    /// existing joints (indices unchanged).
-    /// Returns how many were added.
+    /// existing joints (indices unchanged). Readers do not call it (a file's joints are
+    /// what the Python package and the server expose); the posing command and the corpus
+    /// do. Returns how many were added.
     pub fn tip_skinned_leaves(&mut self) -> usize {
         // The size of the skin as modelled (bind pose), not as the stored pose bends it.
         let bind_points: Vec<Point3> = self

@@ -6,15 +6,14 @@
 //!     --rig ID --scenario NAME --case I [--out FILE.png]
 //! ```
 //! Prints the case's errors and each stroke's matched bones beside the chain it was drawn
-//! from.
+//! along.
 
 use std::process::ExitCode;
 
+use rigfit_core::pose::PoseOptions;
 use rigfit_core::pose::cases::joint_errors;
-use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
 use rigfit_render::{RenderOptions, Scene, chain_colors, render_side_by_side, stroke_colors};
-use rigfit_testkit::corpus::RigKind;
-use rigfit_testkit::sweep::pinned_to_markers;
+use rigfit_testkit::sweep::solve_generated;
 use rigfit_testkit::{Corpus, Scenario, generate_case};
 
 fn run() -> Result<(), String> {
@@ -48,19 +47,9 @@ fn run() -> Result<(), String> {
     let rig = corpus.read_rig(entry).map_err(|e| e.to_string())?;
     let generated = generate_case(&rig, scenario, index);
     let skeleton = &rig.rig.skeleton;
-    let strokes = if rig.entry.kind == RigKind::Marker {
-        pinned_to_markers(skeleton, &generated.case)
-    } else {
-        generated.case.strokes.clone()
-    };
-    let problem = PoseProblem {
-        skeleton,
-        start: &rig.start,
-        strokes: &strokes,
-        movable: None,
-        height: rig.height,
-    };
-    let result = solve_pose(&problem, &PoseOptions::default()).map_err(|e| e.to_string())?;
+    let solved = solve_generated(&rig, &generated, &PoseOptions::default());
+    let strokes = solved.strokes;
+    let result = solved.result.map_err(|e| e.to_string())?;
     let errors = joint_errors(
         skeleton,
         &result.pose,
@@ -92,12 +81,13 @@ fn run() -> Result<(), String> {
         .zip(&result.stroke_bones)
         .enumerate()
     {
-        let verdict = if drawn.is_empty() && matched.is_empty() {
-            "ok (stray)"
-        } else if drawn.iter().any(|j| matched.contains(j)) {
-            "ok"
-        } else {
-            "WRONG"
+        // Right when every matched bone lies on the chain the stroke was drawn along.
+        let verdict = match (drawn.is_empty(), matched.is_empty()) {
+            (true, true) => "ok (stray)",
+            (true, false) => "WRONG (a stray matched)",
+            (false, true) => "WRONG (set aside)",
+            (false, false) if matched.iter().all(|j| drawn.contains(j)) => "ok",
+            (false, false) => "WRONG",
         };
         println!(
             "  stroke {i}: drawn [{}] matched [{}] {verdict}",

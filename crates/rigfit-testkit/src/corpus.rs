@@ -245,7 +245,10 @@ impl Corpus {
             id: entry.id.clone(),
             problem: e.to_string(),
         })?;
-        CorpusRig::new(entry.clone(), file.rig)
+        let mut rig = file.rig;
+        // As `rigfit pose` does: leaf bones need a length to be drawn along and fitted.
+        rig.tip_skinned_leaves();
+        CorpusRig::new(entry.clone(), rig)
     }
 }
 

@@ -4,11 +4,12 @@
 use std::time::Instant;
 
 use rayon::prelude::*;
+use rigfit_core::Stroke;
 use rigfit_core::pose::cases::{joint_errors, limb_motion};
-use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
+use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem, PoseResult, solve_pose};
 
 use crate::corpus::{Corpus, CorpusError, CorpusRig, Half, RigKind};
-use crate::scenario::{Scenario, TargetKind, generate_case};
+use crate::scenario::{GeneratedCase, Scenario, TargetKind, generate_case};
 
 /// A case succeeds when its mean drawn-joint error is at most this fraction of the height...
 pub const SUCCESS_MEAN_ERROR: f64 = 0.03;
@@ -187,14 +188,21 @@ pub fn pinned_to_markers(
         .collect()
 }
 
-/// Generates case `index` of `scenario` on `rig` and solves it with `options`.
-pub fn solve_case(
+/// A generated case solved from the rig's start pose: the strokes given to the solver
+/// (pinned to their markers on a marker rig), its answer and the seconds it took.
+#[derive(Debug)]
+pub struct Solved {
+    pub strokes: Vec<Stroke>,
+    pub result: Result<PoseResult, PoseError>,
+    pub seconds: f64,
+}
+
+/// Solves `generated` on `rig` with `options`.
+pub fn solve_generated(
     rig: &CorpusRig,
-    scenario: Scenario,
-    index: usize,
+    generated: &GeneratedCase,
     options: &PoseOptions,
-) -> Outcome {
-    let generated = generate_case(rig, scenario, index);
+) -> Solved {
     let skeleton = &rig.rig.skeleton;
     let strokes = if rig.entry.kind == RigKind::Marker {
         pinned_to_markers(skeleton, &generated.case)
@@ -211,6 +219,25 @@ pub fn solve_case(
     let began = Instant::now();
     let result = solve_pose(&problem, options);
     let seconds = began.elapsed().as_secs_f64();
+    Solved {
+        strokes,
+        result,
+        seconds,
+    }
+}
+
+/// Generates case `index` of `scenario` on `rig` and solves it with `options`.
+pub fn solve_case(
+    rig: &CorpusRig,
+    scenario: Scenario,
+    index: usize,
+    options: &PoseOptions,
+) -> Outcome {
+    let generated = generate_case(rig, scenario, index);
+    let skeleton = &rig.rig.skeleton;
+    let Solved {
+        result, seconds, ..
+    } = solve_generated(rig, &generated, options);
     let mut outcome = Outcome {
         rig: rig.entry.id.clone(),
         half: rig.entry.half,

@@ -144,18 +144,11 @@ fn describe_rig(out: &mut String, rig: &Rig) -> anyhow::Result<()> {
     writeln!(
         out,
         "joints: {} ({} skin joints, {} end sites, {} helper nodes)",
-        s.len() - count(JointKind::SkinTip),
+        s.len(),
         count(JointKind::Skin),
         count(JointKind::EndSite),
         count(JointKind::Helper)
     )?;
-    let tips = count(JointKind::SkinTip);
-    if tips > 0 {
-        writeln!(
-            out,
-            "tips found from the skin: {tips} (leaf bones' ends; not in the file)"
-        )?;
-    }
     // Depth first, parents before children, with an explicit stack (a chain of any depth);
     // the indentation stops growing at MAX_INDENT levels, deeper joints show their depth,
     // so the text grows linearly with the number of joints.

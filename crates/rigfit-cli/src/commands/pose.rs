@@ -110,7 +110,9 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<String> {
         .map(PathBuf::as_path)
         .collect();
     super::check_files(&[&args.rig, &args.strokes], &outputs)?;
-    let rig_file = read_rig(&args.rig, &options)?;
+    let mut rig_file = read_rig(&args.rig, &options)?;
+    // Leaf bones need a length to be drawn along and fitted.
+    rig_file.rig.tip_skinned_leaves();
     let rig_inputs = super::rig_inputs(&rig_file);
     let mut inputs: Vec<&Path> = rig_inputs.iter().map(PathBuf::as_path).collect();
     inputs.push(&args.strokes);

@@ -176,7 +176,6 @@ pub(super) fn build_rig(
         meshes,
         animations,
     };
-    rig.tip_skinned_leaves();
     rig.free_translating_joints();
     Ok((rig, joint_nodes))
 }
