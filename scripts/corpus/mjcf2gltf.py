@@ -10,9 +10,14 @@ A leaf body whose geoms reach away from its origin gets one child node NAME_end 
 point farthest from it (like a BVH End Site), so the last bone of a chain has a length.
 The skin lists every node. Axes and units are kept as found: MuJoCo is Z-up, in metres.
 The pose is MuJoCo's qpos0 (the model as written); MJCF holds no animation.
+Beside OUT.glb, OUT.joints.json (rigfit's joints file, `rigfit pose --joints`) says what
+each body's MuJoCo joints let it do: none (welded) is fixed, one hinge a hinge about its
+axis with its range, several hinges or a ball a ball bounded per axis, a slide joint
+translates (free, with the rotation its hinges allow). Ranges become radians.
 Standard library only; deterministic.
 """
 
+import json
 import math
 import os
 import sys
@@ -147,6 +152,61 @@ def geom_points(attrs, compiler):
     return [pos]
 
 
+def joint_spec(body, defaults, childclass, compiler):
+    """What a body's MuJoCo joints let it do, as a joints-file entry (None for a free joint:
+    the root's placement is not the rig's to limit)."""
+    hinges, slides, balls = [], 0, []
+    for j in body.findall("joint"):
+        a = defaults.attrs(j, childclass)
+        kind = a.get("type", "hinge")
+        rng = floats(a["range"]) if a.get("range") else None
+        limited = a.get("limited", "auto")
+        if limited == "false" or (limited == "auto" and rng is None):
+            rng = None
+        if kind == "hinge":
+            axis = unit(floats(a.get("axis", "0 0 1")))
+            lim = None if rng is None else (compiler.angle(rng[0]), compiler.angle(rng[1]))
+            hinges.append((axis, lim))
+        elif kind == "slide":
+            slides += 1
+        elif kind == "ball":
+            balls.append(None if rng is None else compiler.angle(rng[1]))
+        elif kind == "free":
+            return None
+    if body.find("freejoint") is not None:
+        return None
+    if not hinges and not slides and not balls:
+        return {"dof": "fixed"}
+    if balls:
+        spec = {"dof": "ball"}
+        if balls[0] is not None:
+            spec["min"] = [-balls[0]] * 3
+            spec["max"] = [balls[0]] * 3
+        return spec
+    if len(hinges) == 1 and not slides:
+        axis, lim = hinges[0]
+        spec = {"dof": "hinge", "axis": [round(v, 9) for v in axis]}
+        if lim is not None:
+            spec["min"], spec["max"] = lim
+        return spec
+    # Several hinges (or slides): a ball (or free) joint bounded per axis by the sum of what
+    # each hinge can turn about it; unlimited hinges leave their axes free.
+    lo, hi = [0.0] * 3, [0.0] * 3
+    for axis, lim in hinges:
+        for c in range(3):
+            if lim is None:
+                if abs(axis[c]) > 1e-9:
+                    lo[c], hi[c] = -math.pi, math.pi
+                continue
+            ends = (axis[c] * lim[0], axis[c] * lim[1])
+            lo[c] += min(ends)
+            hi[c] += max(ends)
+    spec = {"dof": "free" if slides else "ball"}
+    spec["min"] = [round(max(v, -math.pi), 9) for v in lo]
+    spec["max"] = [round(min(v, math.pi), 9) for v in hi]
+    return spec
+
+
 def convert(model, root_name, out):
     root = load(model)
     compiler = Compiler(root)
@@ -179,6 +239,7 @@ def convert(model, root_name, out):
         return None
 
     nodes = []
+    specs = {}
     ends = 0
 
     def visit(b, parent, tr):
@@ -186,6 +247,10 @@ def convert(model, root_name, out):
         index = len(nodes)
         name = b.get("name") or f"body{index}"
         nodes.append({"name": name, "parent": parent, "t": tr[0], "r": tr[1]})
+        if parent is not None:
+            spec = joint_spec(b, defaults, childclass_of(b), compiler)
+            if spec is not None:
+                specs[name] = spec
         kids = b.findall("body")
         for k in kids:
             visit(k, index, local(k))
@@ -204,7 +269,12 @@ def convert(model, root_name, out):
 
     visit(start, None, placement)
     g.write_glb(out, nodes, generator="rigfit scripts/corpus/mjcf2gltf.py")
-    print(f"{out}: {len(nodes)} nodes ({ends} end nodes) from body {root_name!r} of {model}")
+    sidecar = os.path.splitext(out)[0] + ".joints.json"
+    with open(sidecar, "w") as f:
+        json.dump({"joints": specs}, f, indent=1, sort_keys=True)
+        f.write("\n")
+    print(f"{out}: {len(nodes)} nodes ({ends} end nodes) from body {root_name!r} of {model}; "
+          f"{len(specs)} joints in {sidecar}")
 
 
 if __name__ == "__main__":

@@ -264,6 +264,63 @@ fn only_the_chosen_bones_move_and_pinned_strokes_keep_their_bones() {
 }
 
 #[test]
+fn a_joints_file_makes_joints_hinges_or_fixed() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let rig_path = dir.path().join("humanoid.glb");
+    assert!(rigfit(&["demo-rig", "-o", s(&rig_path)]).status.success());
+    let rig = rigfit_core::humanoid::humanoid();
+    let p = rig.skeleton.joint_positions(&rig.pose);
+    let at = |name: &str| p[rig.skeleton.find(name).expect("joint")];
+    // The left arm drawn raised and bent at the elbow, pinned to the arm bones.
+    let (shoulder, elbow) = (at("LeftArm"), at("LeftForeArm"));
+    let upper = (elbow - shoulder).norm();
+    let bend = shoulder + rigfit_core::Vector3::new(0.0, upper, 0.0);
+    let points = (0..=20)
+        .map(|i| shoulder + (bend - shoulder) * (i as f64 / 20.0))
+        .chain(
+            (1..=20).map(|i| bend + rigfit_core::Vector3::new(0.0, 0.0, 0.2) * (i as f64 / 20.0)),
+        )
+        .collect();
+    let stroke = Stroke {
+        points,
+        bones: Some(vec!["LeftArm".into(), "LeftForeArm".into()]),
+    };
+    let strokes = dir.path().join("strokes.json");
+    rigfit_formats::strokes::write_strokes(&strokes, &[stroke]).expect("write");
+    let joints = dir.path().join("joints.json");
+    std::fs::write(
+        &joints,
+        r#"{"joints": {"LeftForeArm": {"dof": "fixed"}, "Spine": {"dof": "fixed"}}}"#,
+    )
+    .expect("write");
+    let report = dir.path().join("report.json");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["pose", s(&rig_path), s(&strokes), "--report", s(&report)];
+        args.extend_from_slice(extra);
+        let o = rigfit(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        read_json(&report)
+    };
+    // Without the file the elbow bends; with it the forearm keeps its rest turn, so the hand
+    // stays on the line of the upper arm.
+    let elbow_bend = |r: &Value| {
+        let [a, b, c] = ["LeftArm", "LeftForeArm", "LeftHand"]
+            .map(|n| rigfit_core::Point3::from(report_position(r, n)));
+        (b - a).angle(&(c - b))
+    };
+    let rest_bend =
+        (at("LeftForeArm") - at("LeftArm")).angle(&(at("LeftHand") - at("LeftForeArm")));
+    assert!(elbow_bend(&run(&[])) > rest_bend + 0.5);
+    assert!((elbow_bend(&run(&["--joints", s(&joints)])) - rest_bend).abs() < 1e-6);
+    // A bad joints file is one line naming the file and the place.
+    let bad = dir.path().join("bad_joints.json");
+    std::fs::write(&bad, r#"{"joints": {"Tail": {"dof": "ball"}}}"#).expect("write");
+    let o = rigfit(&["pose", s(&rig_path), s(&strokes), "--joints", s(&bad)]);
+    assert_bad_input(&o, &bad);
+    assert!(stderr(&o).contains("joints.Tail: the rig has no joint of that name"));
+}
+
+#[test]
 fn bad_strokes_and_options_exit_2_with_one_line() {
     let dir = tempfile::tempdir().expect("temp dir");
     let rig = data("assimp/BCN_Epileptic.glb");

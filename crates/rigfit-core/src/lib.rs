@@ -10,6 +10,7 @@ pub mod geometry;
 pub mod hierarchy;
 pub mod humanoid;
 pub mod interrupt;
+pub mod joint_model;
 pub mod kinematics;
 pub mod math;
 pub mod pose;

@@ -8,6 +8,7 @@ pub mod bvh;
 pub mod error;
 pub mod files;
 pub mod gltf;
+pub mod joints_file;
 pub mod json;
 pub mod mesh_file;
 pub mod obj;

@@ -5,7 +5,7 @@
 //! ```text
 //! cargo run --release -p rigfit-testkit --example pose_corpus -- \
 //!     [--half tune|held-out|all] [--scenario NAME|all] [--cases N] [--case I] [--rig ID[,ID]]
-//!     [--method default|global|greedy|paper] [--threads N] [--worst K] [--markdown]
+//!     [--method default|joint-model|global|greedy|paper] [--threads N] [--worst K] [--markdown]
 //! ```
 //! Scenarios: every-chain, limbs-only, few-limbs, flattened, far. The corpus is
 //! `RIGFIT_CORPUS_MANIFEST` (default `data/corpus.json`) over the folder `RIGFIT_CORPUS`.
@@ -20,7 +20,7 @@ use rigfit_testkit::report::{
 use rigfit_testkit::{Corpus, Half, Scenario, SweepOptions, sweep};
 
 const USAGE: &str = "usage: pose_corpus [--half tune|held-out|all] [--scenario NAME|all] \
-[--cases N] [--case I] [--rig ID[,ID...]] [--method default|global|greedy|paper] [--threads N] [--worst K] \
+[--cases N] [--case I] [--rig ID[,ID...]] [--method default|joint-model|global|greedy|paper] [--threads N] [--worst K] \
 [--markdown]";
 
 struct Args {
@@ -90,6 +90,11 @@ fn parse_args() -> Result<Option<Args>, String> {
             "--method" => {
                 (args.sweep.pose, args.method) = match value.as_str() {
                     "default" => (PoseOptions::default(), "default"),
+                    // The solver given the rig's joint model (`rigfit pose --joints`).
+                    "joint-model" => {
+                        args.sweep.joint_model = true;
+                        (PoseOptions::default(), "joint-model")
+                    }
                     "paper" => (PoseOptions::paper(), "paper"),
                     // The ablation steps of BENCHMARKS.md: the chain step as it was (greedy,
                     // by distance at the current pose), then with the global assignment.
@@ -110,7 +115,7 @@ fn parse_args() -> Result<Option<Args>, String> {
                     ),
                     other => {
                         return Err(format!(
-                            "--method: '{other}' is not default, global, greedy or paper"
+                            "--method: '{other}' is not default, joint-model, global, greedy or paper"
                         ));
                     }
                 }

@@ -3,8 +3,11 @@
 
 use std::path::{Path, PathBuf};
 
+use rigfit_core::Skeleton;
+use rigfit_core::joint_model::{ClipModelOptions, apply_joint_model, joint_model_from_clips};
 use rigfit_core::pose::cases::deforming_joints;
 use rigfit_core::{Pose, Rig, Vector3};
+use rigfit_formats::joints_file::read_joints_file;
 use rigfit_formats::rig_file::{RigOptions, StartFrame, read_rig};
 use serde::Deserialize;
 
@@ -246,9 +249,25 @@ impl Corpus {
             problem: e.to_string(),
         })?;
         let mut rig = file.rig;
-        // As `rigfit pose` does: leaf bones need a length to be drawn along and fitted.
+        // As `rigfit pose` does: leaf bones need a length to be drawn along and fitted. The
+        // joints get their model (hinges, limits) from a joints file beside the rig (the
+        // robot descriptions' converter writes one) or else from the rig's clips: cases are
+        // drawn in poses the rig's joints can take.
         rig.tip_skinned_leaves();
-        CorpusRig::new(entry.clone(), rig)
+        let plain = rig.skeleton.clone();
+        let sidecar = self.path(entry).with_extension("joints.json");
+        let model = if sidecar.is_file() {
+            read_joints_file(&sidecar, &rig.skeleton).map_err(|e| CorpusError::Rig {
+                id: entry.id.clone(),
+                problem: e.to_string(),
+            })?
+        } else {
+            joint_model_from_clips(&rig.skeleton, &rig.animations, &ClipModelOptions::default())
+        };
+        apply_joint_model(&mut rig.skeleton, &model);
+        let mut corpus_rig = CorpusRig::new(entry.clone(), rig)?;
+        corpus_rig.plain_skeleton = plain;
+        Ok(corpus_rig)
     }
 }
 
@@ -264,6 +283,23 @@ pub struct CorpusRig {
     /// that is under a quarter of it): errors are fractions of it.
     pub height: f64,
     pub deforming: Vec<bool>,
+    /// The skeleton before its joint model was applied (every joint that turns a ball
+    /// without limits): what `rigfit pose` sees without `--joints`.
+    pub plain_skeleton: Skeleton,
+    /// Give the solver the joint model (as `rigfit pose --joints` does); otherwise it gets
+    /// [`CorpusRig::plain_skeleton`]. Cases are drawn with the model either way.
+    pub solve_with_joint_model: bool,
+}
+
+impl CorpusRig {
+    /// The skeleton the solver is given.
+    pub fn solver_skeleton(&self) -> &Skeleton {
+        if self.solve_with_joint_model {
+            &self.rig.skeleton
+        } else {
+            &self.plain_skeleton
+        }
+    }
 }
 
 impl CorpusRig {
@@ -288,6 +324,7 @@ impl CorpusRig {
             });
         }
         let deforming = deforming_joints(&rig);
+        let plain_skeleton = rig.skeleton.clone();
         Ok(Self {
             entry,
             rig,
@@ -295,6 +332,8 @@ impl CorpusRig {
             up,
             height,
             deforming,
+            plain_skeleton,
+            solve_with_joint_model: false,
         })
     }
 }

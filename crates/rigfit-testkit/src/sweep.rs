@@ -35,6 +35,9 @@ pub struct SweepOptions {
     pub pose: PoseOptions,
     /// Solver threads (rayon's default, one per core, when `None`).
     pub threads: Option<usize>,
+    /// Give the solver the rig's joint model (hinges and limits from its joints file or
+    /// clips), as `rigfit pose --joints` does; cases are drawn with it either way.
+    pub joint_model: bool,
 }
 
 impl Default for SweepOptions {
@@ -47,6 +50,7 @@ impl Default for SweepOptions {
             only_case: None,
             pose: PoseOptions::default(),
             threads: None,
+            joint_model: false,
         }
     }
 }
@@ -203,7 +207,7 @@ pub fn solve_generated(
     generated: &GeneratedCase,
     options: &PoseOptions,
 ) -> Solved {
-    let skeleton = &rig.rig.skeleton;
+    let skeleton = rig.solver_skeleton();
     let strokes = if rig.entry.kind == RigKind::Marker {
         pinned_to_markers(skeleton, &generated.case)
     } else {
@@ -324,7 +328,8 @@ pub fn sweep(
     };
     let mut outcomes = Vec::new();
     for entry in chosen_rigs(corpus, options)? {
-        let rig = corpus.read_rig(entry)?;
+        let mut rig = corpus.read_rig(entry)?;
+        rig.solve_with_joint_model = options.joint_model;
         let jobs: Vec<(Scenario, usize)> = options
             .scenarios
             .iter()

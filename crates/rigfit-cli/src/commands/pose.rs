@@ -43,6 +43,11 @@ pub struct PoseArgs {
     /// BVH: the frame the solver starts from (a number, or `rest` for all channels zero).
     #[arg(long)]
     pub start_frame: Option<String>,
+    /// A joints file (JSON, see README): which joints are hinges (with their axis) or
+    /// fixed, and soft limits on how far each turns. Without it every joint that turns is a
+    /// ball without limits.
+    #[arg(long, value_name = "FILE.json")]
+    pub joints: Option<PathBuf>,
     /// The solver.
     #[arg(long, value_enum, default_value = "rigfit")]
     pub method: Method,
@@ -109,13 +114,18 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<String> {
         .flatten()
         .map(PathBuf::as_path)
         .collect();
-    super::check_files(&[&args.rig, &args.strokes], &outputs)?;
+    let mut inputs: Vec<&Path> = vec![&args.rig, &args.strokes];
+    inputs.extend(args.joints.as_deref());
+    super::check_files(&inputs, &outputs)?;
     let mut rig_file = read_rig(&args.rig, &options)?;
     // Leaf bones need a length to be drawn along and fitted.
     rig_file.rig.tip_skinned_leaves();
+    if let Some(path) = &args.joints {
+        let model = rigfit_formats::joints_file::read_joints_file(path, &rig_file.rig.skeleton)?;
+        rigfit_core::joint_model::apply_joint_model(&mut rig_file.rig.skeleton, &model);
+    }
     let rig_inputs = super::rig_inputs(&rig_file);
-    let mut inputs: Vec<&Path> = rig_inputs.iter().map(PathBuf::as_path).collect();
-    inputs.push(&args.strokes);
+    inputs.extend(rig_inputs.iter().map(PathBuf::as_path));
     // The inputs were checked before reading (a glTF's buffers as they were read): only the
     // outputs are checked again, against the buffer files too.
     rigfit_formats::files::check_outputs(&inputs, &outputs)?;

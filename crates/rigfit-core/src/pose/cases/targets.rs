@@ -6,8 +6,9 @@ use rand_distr::{Distribution, UnitSphere};
 
 use super::coverage::{chain_length, limb_chains, outer_limbs};
 use crate::animation::{Animation, ChannelTarget, Interpolation};
+use crate::joint_model::limit_excess;
 use crate::math::{Quat, Vector3};
-use crate::skeleton::{JointDof, JointKind, Pose, Skeleton};
+use crate::skeleton::{Joint, JointDof, JointKind, Pose, Skeleton};
 
 /// A limb's first bone counts as a short link (a clavicle, a hip joint) and the limb turns
 /// at the next joint when it is shorter than this fraction of the next bone.
@@ -289,19 +290,30 @@ fn random_bends(
         if !below_root || joint.kind == JointKind::Helper {
             continue;
         }
-        if matches!(joint.dof, JointDof::Ball | JointDof::Free) {
-            let max_angle = if is_limb_root[j] {
-                options.limb_turn
-            } else {
-                options.bend * bend_share[j]
-            };
-            let mut rotation = pose.local[j].rotation * random_rotation(max_angle, rng);
-            if let Some(limits) = &joint.limits {
-                let relative = (joint.rest.rotation.inverse() * rotation).scaled_axis();
-                rotation = joint.rest.rotation
-                    * Quat::from_scaled_axis(relative.sup(&limits.min).inf(&limits.max));
+        let max_angle = if is_limb_root[j] {
+            options.limb_turn
+        } else {
+            options.bend * bend_share[j]
+        };
+        match joint.dof {
+            JointDof::Ball | JointDof::Free => {
+                pose.local[j].rotation =
+                    bent_within_limits(joint, &pose.local[j].rotation, max_angle, rng);
             }
-            pose.local[j].rotation = rotation;
+            JointDof::Hinge { axis } => {
+                // Anywhere in the hinge's range (or up to the bend either way without one).
+                let (lo, hi) = joint
+                    .limits
+                    .map_or((-max_angle, max_angle), |l| (l.min.x, l.max.x));
+                let angle = if hi > lo {
+                    rng.random_range(lo..=hi)
+                } else {
+                    lo
+                };
+                pose.local[j].rotation =
+                    joint.rest.rotation * Quat::from_scaled_axis(axis.normalize() * angle);
+            }
+            JointDof::Fixed => {}
         }
         let moving = ranges[j].filter(|(lo, hi)| (hi - lo).amax() > 1e-9 * height);
         if let Some((lo, hi)) = moving {
@@ -313,6 +325,26 @@ fn random_bends(
         }
     }
     pose
+}
+
+/// Tries for a random bend that lands within a joint's limits before the last is clamped.
+const LIMITED_BEND_TRIES: usize = 16;
+
+/// `rotation` turned about a random axis by up to `max_angle`, within the joint's limits
+/// when it has them (a random turn that lands inside them, else the last one clamped).
+fn bent_within_limits(joint: &Joint, rotation: &Quat, max_angle: f64, rng: &mut impl Rng) -> Quat {
+    let Some(limits) = &joint.limits else {
+        return rotation * random_rotation(max_angle, rng);
+    };
+    let mut relative = Vector3::zeros();
+    for _ in 0..LIMITED_BEND_TRIES {
+        let bent = rotation * random_rotation(max_angle, rng);
+        relative = (joint.rest.rotation.inverse() * bent).scaled_axis();
+        if limit_excess(&joint.dof, limits, &relative) == Vector3::zeros() {
+            return bent;
+        }
+    }
+    joint.rest.rotation * Quat::from_scaled_axis(relative.sup(&limits.min).inf(&limits.max))
 }
 
 /// Each joint's share of a chain's bend budget: 1 in a chain of at most

@@ -463,3 +463,58 @@ fn long_chains_share_their_bend() {
     );
     assert!(elbow_max > options.bend / 2.0, "elbow bent {elbow_max}");
 }
+
+#[test]
+fn far_poses_keep_within_the_joint_model() {
+    use crate::joint_model::limit_excess;
+    use crate::skeleton::{JointDof, JointLimits};
+    let mut rig = humanoid();
+    let knee = rig.skeleton.find("LeftLeg").expect("a left knee");
+    let elbow = rig.skeleton.find("LeftForeArm").expect("a left elbow");
+    let arm = rig.skeleton.find("LeftArm").expect("a left arm");
+    let knee_limits = JointLimits {
+        min: Vector3::new(0.0, 0.0, 0.0),
+        max: Vector3::new(2.4, 0.0, 0.0),
+    };
+    let arm_limits = JointLimits {
+        min: Vector3::new(-0.4, -0.3, -1.2),
+        max: Vector3::new(0.4, 0.3, 1.2),
+    };
+    let hinge = JointDof::Hinge { axis: Vector3::x() };
+    rig.skeleton.set_dof(knee, hinge, Some(knee_limits));
+    rig.skeleton.set_dof(elbow, JointDof::Fixed, None);
+    rig.skeleton.set_dof(arm, JointDof::Ball, Some(arm_limits));
+    let mut knee_angles = Vec::new();
+    for seed in 0..20 {
+        let pose = far_pose(
+            &rig.skeleton,
+            &rig.pose,
+            &[],
+            1.75,
+            &FarPoseOptions::default(),
+            &mut StdRng::seed_from_u64(seed),
+        );
+        let relative =
+            |j: usize| rig.skeleton.joint(j).rest.rotation.inverse() * pose.local[j].rotation;
+        // The knee turns about its axis only, within its range.
+        let knee_turn = relative(knee).scaled_axis();
+        assert!(
+            knee_turn.y.abs() < 1e-9 && knee_turn.z.abs() < 1e-9,
+            "{knee_turn}"
+        );
+        assert_eq!(
+            limit_excess(&hinge, &knee_limits, &knee_turn),
+            Vector3::zeros()
+        );
+        knee_angles.push(knee_turn.x);
+        // The fixed elbow does not turn; the arm stays in its box.
+        assert!(relative(elbow).angle() < 1e-12);
+        let arm_turn = relative(arm).scaled_axis();
+        let excess = limit_excess(&JointDof::Ball, &arm_limits, &arm_turn);
+        assert!(excess.norm() < 1e-9, "arm {arm_turn} outside its limits");
+    }
+    // The knee's range is used, not only its rest.
+    let spread = knee_angles.iter().copied().fold(0.0, f64::max)
+        - knee_angles.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(spread > 1.2, "knee angles {knee_angles:?}");
+}
