@@ -3,11 +3,11 @@
 
 use rand::SeedableRng;
 use rand::rngs::StdRng;
-use rigfit_core::Pose;
 use rigfit_core::pose::cases::{
     Case, CaseOptions, Coverage, FarPoseOptions, clip_pose, desktop_view, draw_case, far_pose,
     mirror_pose,
 };
+use rigfit_core::{Pose, Skeleton};
 
 use crate::corpus::CorpusRig;
 
@@ -23,7 +23,8 @@ pub enum Scenario {
     /// The limbs (chains at least 10% of the height that carry skin weight), 1% noise;
     /// clip, far and mirrored targets in turn.
     LimbsOnly,
-    /// Two or three limbs, 1% noise; clip, far and mirrored targets in turn.
+    /// Two or three limbs, 1% noise; clip, far and mirrored targets in turn, taken by the
+    /// drawn limbs alone (the rest of the body keeps the start pose).
     FewLimbs,
     /// Every chain, 1% noise, each stroke flattened in depth as seen from a random
     /// horizontal-ish view (a desktop user drawing); clip, far and mirrored targets in turn.
@@ -181,7 +182,8 @@ pub fn generate_case(rig: &CorpusRig, scenario: Scenario, index: usize) -> Gener
     if scenario == Scenario::Flattened {
         options.flatten = Some(desktop_view(&rig.up, DESKTOP_ELEVATION, &mut rng));
     }
-    let case = draw_case(
+    let mut draw_rng = rng.clone();
+    let mut case = draw_case(
         skeleton,
         &rig.deforming,
         &truth,
@@ -189,10 +191,60 @@ pub fn generate_case(rig: &CorpusRig, scenario: Scenario, index: usize) -> Gener
         &options,
         &mut rng,
     );
+    let mut truth = truth;
+    if scenario == Scenario::FewLimbs {
+        // An animator re-posing two or three limbs: those limbs take the target, the rest
+        // of the body keeps the start pose (as the solver keeps undrawn limbs), so the
+        // strokes say all there is to recover. Drawn again with the same random numbers:
+        // the same chains, now through the limbs on the standing body.
+        truth = only_drawn_limbs_moved(skeleton, &rig.start, &truth, &case.stroke_chains);
+        case = draw_case(
+            skeleton,
+            &rig.deforming,
+            &truth,
+            rig.height,
+            &options,
+            &mut draw_rng,
+        );
+    }
     GeneratedCase {
         target,
         truth,
         case,
         options,
     }
+}
+
+/// `start` with the joints that turn the drawn chains' bones, and everything below them,
+/// taken from `target`: each chain's first joint (where it attaches) and the joints above
+/// it keep their start transform.
+fn only_drawn_limbs_moved(
+    skeleton: &Skeleton,
+    start: &Pose,
+    target: &Pose,
+    chains: &[Vec<usize>],
+) -> Pose {
+    let mut moved = vec![false; skeleton.len()];
+    for chain in chains {
+        // A stroke may run either way along its chain: its end nearest the root attaches.
+        let Some(attach) = chain
+            .iter()
+            .copied()
+            .find(|&j| chain.iter().all(|&k| skeleton.is_ancestor_or_self(j, k)))
+        else {
+            continue;
+        };
+        for &j in chain.iter().filter(|&&j| j != attach) {
+            moved[j] = true;
+        }
+    }
+    let mut pose = start.clone();
+    for j in 0..skeleton.len() {
+        let below_moved = skeleton.joint(j).parent.is_some_and(|p| moved[p]);
+        if moved[j] || below_moved {
+            moved[j] = true;
+            pose.local[j] = target.local[j];
+        }
+    }
+    pose
 }

@@ -34,6 +34,10 @@ pub(super) const STRAY_COST: f64 = 0.2;
 /// The samples from a chain's attached end that say where it attaches (the first fifth or
 /// so, which moves little with the limb's pose).
 const PROXIMAL_SAMPLES: usize = 5;
+/// Chains of up to this many bones are compared by their rest shape turned rigidly; longer
+/// ones may bend (measured on the corpus's tuning half: 5 against 3 and a share of
+/// 1 / joints for every chain).
+const RIGID_CHAIN_BONES: usize = 5;
 /// The candidates each stroke keeps (best first).
 const KEPT_CANDIDATES: usize = 32;
 /// Search nodes per group of strokes competing for bones, before the best assignment
@@ -106,7 +110,7 @@ pub(super) fn candidates(
                 // Where the chain attaches, then its distance now or its shape turned,
                 // whichever is less.
                 let cost = if by_shape {
-                    shape_cost(stroke, samples, reversed, h)
+                    shape_cost(stroke, samples, reversed, h, chain.len().saturating_sub(1))
                         .map(|(attach, turned)| ATTACH_WEIGHT * attach + turned.min(near))
                         .or(pinned.then_some(near))
                 } else {
@@ -158,8 +162,15 @@ fn distance_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) ->
 /// The turned fit is measured without solving for the rotation: the residual compares the
 /// samples' distances from the attachment (what no turn changes; a lower bound of the
 /// residual after the best turn), and the turn is the angle between the chain's and the
-/// stroke's mean directions from it, priced by how far the chain's tip travels.
-fn shape_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) -> Option<(f64, f64)> {
+/// stroke's mean directions from it, priced by how far the chain's tip travels. `bends`
+/// counts the joints inside the chain.
+fn shape_cost(
+    stroke: &[Point3],
+    chain: &[Point3],
+    reversed: bool,
+    h: f64,
+    bends: usize,
+) -> Option<(f64, f64)> {
     let pivot = chain[0];
     if (oriented(stroke, 0, reversed) - pivot).norm() > MAX_ATTACH_DISTANCE * h {
         return None;
@@ -178,7 +189,25 @@ fn shape_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) -> Op
         along_chain += a;
         along_stroke += b;
     }
-    let residual = residual / SAMPLES as f64 / (h * h);
+    let mut residual = residual / SAMPLES as f64 / (h * h);
+    if bends >= RIGID_CHAIN_BONES {
+        // A long chain (a tail, a spine) bends: its samples may come nearer its attachment
+        // than its rest shape has them, never farther than its arclength. Only reaching too
+        // far is sure; the rest-shape residual counts less the more joints it can bend at.
+        let length: f64 = (1..SAMPLES).map(|i| (chain[i] - chain[i - 1]).norm()).sum();
+        let too_far = (0..SAMPLES)
+            .map(|i| {
+                let reach = length * i as f64 / (SAMPLES - 1) as f64;
+                ((oriented(stroke, i, reversed) - pivot).norm() - reach)
+                    .max(0.0)
+                    .powi(2)
+            })
+            .sum::<f64>()
+            / SAMPLES as f64
+            / (h * h);
+        let rigid_share = RIGID_CHAIN_BONES as f64 / (1.0 + bends as f64);
+        residual = too_far + rigid_share * (residual - too_far).max(0.0);
+    }
     let angle = along_chain.angle(&along_stroke);
     let reach = (chain[SAMPLES - 1] - pivot).norm() / h;
     Some((attach, residual + TURN_WEIGHT * (angle * reach).powi(2)))
