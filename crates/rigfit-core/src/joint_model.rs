@@ -2,8 +2,9 @@
 //! each joint turns through. A rig file rarely says; its clips do. A joint its clips only
 //! ever turn about one axis becomes a hinge (as the knees and finger joints of the 27-DOF
 //! hand of Dewaele et al. are), and every joint the clips turn gets the range they show,
-//! widened by a margin, as soft limits. A sidecar file (read by `rigfit-formats`) may
-//! give or override the model joint by joint.
+//! widened by a margin. A joints file (read by `rigfit-formats`) may give or override the
+//! model joint by joint. Posing keeps every joint's DOF unless a joints file says otherwise
+//! and uses limits only to choose among poses that explain the strokes alike.
 
 use crate::animation::{Animation, ChannelTarget, Interpolation, quat_from_xyzw};
 use crate::math::{Matrix3, Vector3};
@@ -169,6 +170,20 @@ impl JointSpec {
             _ => *self,
         }
     }
+}
+
+/// The limits the clips show, every joint kept a ball (hinges spread onto the axes, see
+/// [`JointSpec::as_ball`]): what posing uses by default, to choose among poses that explain
+/// the strokes alike without changing what any joint can do.
+pub fn ball_limits_from_clips(
+    skeleton: &Skeleton,
+    animations: &[Animation],
+    options: &ClipModelOptions,
+) -> Vec<Option<JointSpec>> {
+    joint_model_from_clips(skeleton, animations, options)
+        .into_iter()
+        .map(|spec| spec.map(|s| s.as_ball()))
+        .collect()
 }
 
 /// Gives each joint its `model` entry (`None` leaves a joint as it is); returns how many

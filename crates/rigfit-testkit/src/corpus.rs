@@ -4,7 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use rigfit_core::Skeleton;
-use rigfit_core::joint_model::{ClipModelOptions, apply_joint_model, joint_model_from_clips};
+use rigfit_core::joint_model::{
+    ClipModelOptions, apply_joint_model, ball_limits_from_clips, joint_model_from_clips,
+};
 use rigfit_core::pose::cases::deforming_joints;
 use rigfit_core::{Pose, Rig, Vector3};
 use rigfit_formats::joints_file::read_joints_file;
@@ -265,6 +267,11 @@ impl Corpus {
             joint_model_from_clips(&rig.skeleton, &rig.animations, &ClipModelOptions::default())
         };
         apply_joint_model(&mut rig.skeleton, &model);
+        // What `rigfit pose` sees without `--joints`: ball joints with the clips' ranges.
+        let mut plain = plain;
+        let preferences =
+            ball_limits_from_clips(&plain, &rig.animations, &ClipModelOptions::default());
+        apply_joint_model(&mut plain, &preferences);
         let mut corpus_rig = CorpusRig::new(entry.clone(), rig)?;
         corpus_rig.plain_skeleton = plain;
         Ok(corpus_rig)
@@ -283,8 +290,8 @@ pub struct CorpusRig {
     /// that is under a quarter of it): errors are fractions of it.
     pub height: f64,
     pub deforming: Vec<bool>,
-    /// The skeleton before its joint model was applied (every joint that turns a ball
-    /// without limits): what `rigfit pose` sees without `--joints`.
+    /// What `rigfit pose` sees without `--joints`: the file's skeleton, every joint that
+    /// turns a ball, with the ranges the rig's clips show.
     pub plain_skeleton: Skeleton,
     /// Give the solver the joint model (as `rigfit pose --joints` does); otherwise it gets
     /// [`CorpusRig::plain_skeleton`]. Cases are drawn with the model either way.

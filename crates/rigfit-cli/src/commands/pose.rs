@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::anyhow;
+use rigfit_core::joint_model::{ClipModelOptions, apply_joint_model, ball_limits_from_clips};
 use rigfit_core::pose::{PoseOptions, PoseProblem, PoseResult, solve_pose};
 use rigfit_formats::files::{commit_all, stage};
 use rigfit_formats::report::{pose_report, to_text};
@@ -44,8 +45,8 @@ pub struct PoseArgs {
     #[arg(long)]
     pub start_frame: Option<String>,
     /// A joints file (JSON, see README): which joints are hinges (with their axis) or
-    /// fixed, and soft limits on how far each turns. Without it every joint that turns is a
-    /// ball without limits.
+    /// fixed, and the range each turns through. Without it every joint that turns is a ball,
+    /// with the ranges the rig's clips show.
     #[arg(long, value_name = "FILE.json")]
     pub joints: Option<PathBuf>,
     /// The solver.
@@ -118,11 +119,16 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<String> {
     inputs.extend(args.joints.as_deref());
     super::check_files(&inputs, &outputs)?;
     let mut rig_file = read_rig(&args.rig, &options)?;
-    // Leaf bones need a length to be drawn along and fitted.
+    // Leaf bones need a length to be drawn along and fitted; the ranges the rig's clips show
+    // choose among poses that explain the strokes alike.
     rig_file.rig.tip_skinned_leaves();
+    let rig = &mut rig_file.rig;
+    let preferences =
+        ball_limits_from_clips(&rig.skeleton, &rig.animations, &ClipModelOptions::default());
+    apply_joint_model(&mut rig.skeleton, &preferences);
     if let Some(path) = &args.joints {
         let model = rigfit_formats::joints_file::read_joints_file(path, &rig_file.rig.skeleton)?;
-        rigfit_core::joint_model::apply_joint_model(&mut rig_file.rig.skeleton, &model);
+        apply_joint_model(&mut rig_file.rig.skeleton, &model);
     }
     let rig_inputs = super::rig_inputs(&rig_file);
     inputs.extend(rig_inputs.iter().map(PathBuf::as_path));

@@ -125,6 +125,14 @@ pub struct Outcome {
 /// Draws every case of `suite` for `scenario` (seeded per case) and solves it.
 pub fn solve_cases(suite: &Suite, options: &PoseOptions, scenario: &CaseOptions) -> Vec<Outcome> {
     let skeleton = &suite.rig.skeleton;
+    // As `rigfit pose` does: the ranges the rig's clips show choose among explanations.
+    let mut with_ranges = skeleton.clone();
+    let ranges = rigfit_core::joint_model::ball_limits_from_clips(
+        skeleton,
+        &suite.rig.animations,
+        &rigfit_core::joint_model::ClipModelOptions::default(),
+    );
+    rigfit_core::joint_model::apply_joint_model(&mut with_ranges, &ranges);
     let height = suite.rig.height();
     suite
         .truths
@@ -134,7 +142,7 @@ pub fn solve_cases(suite: &Suite, options: &PoseOptions, scenario: &CaseOptions)
             let mut rng = rand::rngs::StdRng::seed_from_u64(1000 + t as u64);
             let case = make_case(skeleton, truth, height, scenario, &mut rng);
             let problem = PoseProblem {
-                skeleton,
+                skeleton: &with_ranges,
                 start: &suite.start,
                 strokes: &case.strokes,
                 movable: None,

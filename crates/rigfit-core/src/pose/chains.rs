@@ -69,13 +69,24 @@ fn sample_distance(stroke: &[Point3], chain: &[Point3], reversed: bool) -> f64 {
         / SAMPLES as f64
 }
 
-/// Whether stroke `s` runs along `chain` tip first (the direction whose arclength-matched
-/// points lie closer at `pose`).
+/// Whether stroke `s` runs along `chain` tip first: the direction whose arclength-matched
+/// points lie closer at `pose`, the chain's attached end weighed more (it moves least with
+/// the limb's pose; unweighted, a chain at right angles to a stroke from its attachment
+/// fits both ways alike).
 pub(super) fn better_direction(setup: &Setup, pose: &Pose, s: usize, chain: &[usize]) -> bool {
     let fk = ForwardKinematics::new(setup.skeleton, pose);
     let (line, _) = arclength_samples(&setup.model.chain_polyline(chain, &fk));
     let stroke = &setup.strokes.by_arclength[s].0;
-    sample_distance(stroke, &line, true) < sample_distance(stroke, &line, false)
+    let weighted = |reversed: bool| {
+        (0..SAMPLES)
+            .map(|k| {
+                let i = if reversed { SAMPLES - 1 - k } else { k };
+                let weight = 1.2 - k as f64 / (SAMPLES - 1) as f64;
+                weight * (stroke[i] - line[k]).norm_squared()
+            })
+            .sum::<f64>()
+    };
+    weighted(true) < weighted(false)
 }
 
 /// RMS distance (in heights) of each assigned stroke's points to its chain at the same

@@ -1,19 +1,15 @@
 //! Fitting: Levenberg-Marquardt on eq. (1) of Cannavò et al. with the matches fixed. Each
 //! model point is pulled to a target (the weighted mean of its matches, Dewaele eq. 20 form,
-//! or the stroke point at the same fraction of arclength), plus `Phi(p)` and joint limits.
+//! or the stroke point at the same fraction of arclength), plus `Phi(p)`. Joint limits
+//! are not enforced here: they choose among fitted hypotheses (`solver`).
 //! [`Fitter`] holds the pose being fitted and the buffers its steps reuse.
 
 use super::chains::{self, Assignment};
 use super::setup::Setup;
 use crate::engine::{NormalSink, SkeletonNormalEquations, SubtreeMoments};
-use crate::joint_model::limit_excess;
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::Point3;
 use crate::skeleton::{JointDof, Pose};
-
-/// Weight of a joint-limit violation (radians) in the fit: soft, so strokes drawn past a
-/// limit still pull the limb (measured on the corpus's tuning half: 1 against 100 and 0.01).
-const LIMIT_WEIGHT: f64 = 1.0;
 
 /// Levenberg-Marquardt steps of a full arclength fit.
 pub(super) const FULL_FIT_STEPS: usize = 20;
@@ -54,7 +50,7 @@ impl Fitter {
     }
 
     /// The weighted cost of `pose` (whose forward kinematics is `fk`): model point `k`
-    /// pulled to `targets[k]`, plus `Phi(p)` and joint-limit penalties. With `ne`, also
+    /// pulled to `targets[k]`, plus `Phi(p)`. With `ne`, also
     /// accumulates the normal equations (the points' through their subtree moments).
     fn objective(
         &self,
@@ -114,19 +110,6 @@ impl Fitter {
                     (0..3).for_each(|a| scalar(&mut ne, delta[a], prior, o + 3 + a, 1.0));
                 }
                 _ => {}
-            }
-            let dof = layout.dof(j);
-            if let (Some(lim), JointDof::Ball | JointDof::Hinge { .. }) =
-                (&skeleton.joint(j).limits, dof)
-            {
-                let rest = (skeleton.joint(j).rest.rotation.inverse() * pose.local[j].rotation)
-                    .scaled_axis();
-                let excess = limit_excess(&dof, lim, &rest);
-                for a in 0..dof.count() {
-                    if excess[a] != 0.0 {
-                        scalar(&mut ne, excess[a], LIMIT_WEIGHT, o + a, 1.0);
-                    }
-                }
             }
         }
         match ne {

@@ -1,0 +1,90 @@
+//! Joint limits choose between poses that explain the strokes alike, and never hold a limb
+//! back from its stroke.
+
+use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
+use rigfit_core::{Joint, JointDof, JointLimits, Point3, Skeleton, Stroke, Trs, Vector3};
+
+/// A fixed hub with two mirror-image arms of length 1 along +x and -x.
+fn two_arms(left: Option<JointLimits>, right: Option<JointLimits>) -> Skeleton {
+    let at = |x: f64| Trs::from_translation(Vector3::new(x, 0.0, 0.0));
+    let mut joints = vec![
+        Joint::new("hub", None, Trs::default()),
+        Joint::new("left", Some(0), Trs::default()),
+        Joint::new("left_tip", Some(1), at(1.0)),
+        Joint::new("right", Some(0), Trs::default()),
+        Joint::new("right_tip", Some(3), at(-1.0)),
+    ];
+    joints[0].dof = JointDof::Fixed;
+    joints[1].limits = left;
+    joints[3].limits = right;
+    for tip in [2, 4] {
+        joints[tip].dof = JointDof::Fixed;
+    }
+    Skeleton::new(joints).expect("valid")
+}
+
+/// The limb a stroke straight up from the hub is matched to, and where its tip ends.
+fn arm_raised(skeleton: &Skeleton) -> (String, Point3) {
+    let stroke = Stroke {
+        points: (0..=40)
+            .map(|i| Point3::new(0.0, i as f64 / 40.0, 0.0))
+            .collect(),
+        bones: None,
+    };
+    let start = skeleton.rest_pose();
+    let problem = PoseProblem {
+        skeleton,
+        start: &start,
+        strokes: std::slice::from_ref(&stroke),
+        movable: None,
+        height: 1.0,
+    };
+    let result = solve_pose(&problem, &PoseOptions::default()).expect("poses");
+    let bone = result.stroke_bones[0]
+        .first()
+        .map(|&j| skeleton.joint(j).name.clone())
+        .unwrap_or_default();
+    let tip = skeleton
+        .find(&format!("{bone}_tip"))
+        .expect("a matched arm");
+    (bone, skeleton.joint_positions(&result.pose)[tip])
+}
+
+#[test]
+fn limits_pick_the_arm_that_may_turn_there() {
+    // Either arm reaches straight up by a quarter turn about z (left +, right -).
+    let narrow = JointLimits {
+        min: Vector3::new(-0.2, -0.2, -0.2),
+        max: Vector3::new(0.2, 0.2, 0.2),
+    };
+    let down = JointLimits {
+        min: Vector3::new(-0.2, -0.2, -2.0),
+        max: Vector3::new(0.2, 0.2, 0.2),
+    };
+    let up = JointLimits {
+        min: Vector3::new(-0.2, -0.2, -0.2),
+        max: Vector3::new(0.2, 0.2, 2.0),
+    };
+    let (bone, tip) = arm_raised(&two_arms(Some(narrow), Some(down)));
+    assert_eq!(bone, "right", "the left arm may not turn up");
+    assert!(
+        (tip - Point3::new(0.0, 1.0, 0.0)).norm() < 0.03,
+        "tip {tip}"
+    );
+    let (bone, _) = arm_raised(&two_arms(Some(up), Some(narrow)));
+    assert_eq!(bone, "left", "the right arm may not turn up");
+}
+
+#[test]
+fn limits_never_hold_a_limb_back() {
+    // Both arms limited away from the stroke: one still follows it all the way.
+    let narrow = JointLimits {
+        min: Vector3::new(-0.2, -0.2, -0.2),
+        max: Vector3::new(0.2, 0.2, 0.2),
+    };
+    let (_, tip) = arm_raised(&two_arms(Some(narrow), Some(narrow)));
+    assert!(
+        (tip - Point3::new(0.0, 1.0, 0.0)).norm() < 0.03,
+        "tip {tip}"
+    );
+}
