@@ -70,9 +70,9 @@ fn sample_distance(stroke: &[Point3], chain: &[Point3], reversed: bool) -> f64 {
 }
 
 /// Whether stroke `s` runs along `chain` tip first: the direction whose arclength-matched
-/// points lie closer at `pose`, the chain's attached end weighed more (it moves least with
-/// the limb's pose; unweighted, a chain at right angles to a stroke from its attachment
-/// fits both ways alike).
+/// points lie closer at `pose`; on a near tie (a chain at right angles to a stroke from its
+/// attachment fits both ways alike), the one closer at the chain's attached end, which moves
+/// least with the limb's pose.
 pub(super) fn better_direction(setup: &Setup, pose: &Pose, s: usize, chain: &[usize]) -> bool {
     let fk = ForwardKinematics::new(setup.skeleton, pose);
     let (line, _) = arclength_samples(&setup.model.chain_polyline(chain, &fk));
@@ -86,8 +86,19 @@ pub(super) fn better_direction(setup: &Setup, pose: &Pose, s: usize, chain: &[us
             })
             .sum::<f64>()
     };
-    weighted(true) < weighted(false)
+    let (ahead, back) = (
+        sample_distance(stroke, &line, false),
+        sample_distance(stroke, &line, true),
+    );
+    if (ahead - back).abs() > DIRECTION_TIE * ahead.max(back) {
+        back < ahead
+    } else {
+        weighted(true) < weighted(false)
+    }
 }
+
+/// Two directions whose mean distances differ by less than this share are a tie.
+const DIRECTION_TIE: f64 = 0.1;
 
 /// RMS distance (in heights) of each assigned stroke's points to its chain at the same
 /// fraction of arclength, at `pose` (0 for strokes set aside).
