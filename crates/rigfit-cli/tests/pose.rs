@@ -54,6 +54,22 @@ fn draw_case(rig_path: &Path, frame_or_time: f64, out: &Path) -> Vec<(String, [f
         .collect()
 }
 
+/// A folder holding the built-in humanoid as `humanoid.glb` (written by `rigfit demo-rig`),
+/// its path, and where each of its joints is in the stored pose.
+fn demo_humanoid() -> (
+    tempfile::TempDir,
+    std::path::PathBuf,
+    impl Fn(&str) -> rigfit_core::Point3,
+) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let rig_path = dir.path().join("humanoid.glb");
+    assert!(rigfit(&["demo-rig", "-o", s(&rig_path)]).status.success());
+    let rig = rigfit_core::humanoid::humanoid();
+    let positions = rig.skeleton.joint_positions(&rig.pose);
+    let at = move |name: &str| positions[rig.skeleton.find(name).expect("joint")];
+    (dir, rig_path, at)
+}
+
 fn report_position(report: &Value, name: &str) -> [f64; 3] {
     let joint = report["joints"]
         .as_array()
@@ -217,12 +233,7 @@ fn frame_keys_accumulate_in_the_rigfit_animation() {
 
 #[test]
 fn only_the_chosen_bones_move_and_pinned_strokes_keep_their_bones() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let rig_path = dir.path().join("humanoid.glb");
-    assert!(rigfit(&["demo-rig", "-o", s(&rig_path)]).status.success());
-    let rig = rigfit_core::humanoid::humanoid();
-    let p = rig.skeleton.joint_positions(&rig.pose);
-    let at = |name: &str| p[rig.skeleton.find(name).expect("joint")];
+    let (dir, rig_path, at) = demo_humanoid();
     // One stroke: the left arm raised, pinned to the arm bones.
     let shoulder = at("LeftArm");
     let stroke = Stroke {
@@ -265,12 +276,7 @@ fn only_the_chosen_bones_move_and_pinned_strokes_keep_their_bones() {
 
 #[test]
 fn a_joints_file_makes_joints_hinges_or_fixed() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let rig_path = dir.path().join("humanoid.glb");
-    assert!(rigfit(&["demo-rig", "-o", s(&rig_path)]).status.success());
-    let rig = rigfit_core::humanoid::humanoid();
-    let p = rig.skeleton.joint_positions(&rig.pose);
-    let at = |name: &str| p[rig.skeleton.find(name).expect("joint")];
+    let (dir, rig_path, at) = demo_humanoid();
     // The left arm drawn raised and bent at the elbow, pinned to the arm bones.
     let (shoulder, elbow) = (at("LeftArm"), at("LeftForeArm"));
     let upper = (elbow - shoulder).norm();

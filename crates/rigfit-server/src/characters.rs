@@ -4,6 +4,7 @@
 use std::path::Path;
 use std::sync::{Arc, PoisonError, RwLock};
 
+use rigfit_core::joint_model;
 use rigfit_core::{JointKind, Pose, Trs};
 use rigfit_formats::FormatError;
 use rigfit_formats::rig_file::{RigFile, RigFormat, RigOptions, parse_rig};
@@ -23,6 +24,9 @@ pub struct Character {
     pub rig_file: RigFile,
     /// For each joint of the rig, its node in the display model (`model.glb`).
     pub display_nodes: Vec<usize>,
+    /// The skeleton a solve poses, as `rigfit pose` does: the rig's, with the ranges its
+    /// clips show choosing among poses that explain the strokes alike.
+    pub posing_skeleton: rigfit_core::Skeleton,
 }
 
 impl Character {
@@ -34,12 +38,21 @@ impl Character {
             .filter(|s| !s.is_empty())
             .unwrap_or_else(|| id.clone());
         let display_nodes = rig_file.display_nodes();
+        let rig = &rig_file.rig;
+        let mut posing_skeleton = rig.skeleton.clone();
+        let ranges = joint_model::ball_limits_from_clips(
+            &rig.skeleton,
+            &rig.animations,
+            &joint_model::ClipModelOptions::default(),
+        );
+        joint_model::apply_joint_model(&mut posing_skeleton, &ranges);
         Self {
             id,
             name,
             format,
             rig_file,
             display_nodes,
+            posing_skeleton,
         }
     }
 

@@ -105,14 +105,15 @@ fn solve_request(
         },
     };
     let restricted;
+    let posing = &character.posing_skeleton;
     let skeleton = match root {
-        RootMotion::Free => &rig.skeleton,
+        RootMotion::Free => posing,
         RootMotion::Rotate => {
-            restricted = restrict_roots(&rig.skeleton, JointDof::Ball);
+            restricted = restrict_roots(posing, JointDof::Ball);
             &restricted
         }
         RootMotion::Fixed => {
-            restricted = restrict_roots(&rig.skeleton, JointDof::Fixed);
+            restricted = restrict_roots(posing, JointDof::Fixed);
             &restricted
         }
     };
