@@ -25,10 +25,15 @@ const HYPOTHESIS_BEND_WEIGHT: f64 = 5e-4;
 /// choosing among hypotheses (measured on the tuning half: 1e-3 against 3e-4, 3e-3, 1e-2).
 const HYPOTHESIS_LIMIT_WEIGHT: f64 = 1e-3;
 
-/// Weight of the squared turn of the character's root away from the start pose when
-/// choosing among hypotheses: a tie-break. Measured against 1e-5 to 1e-3: larger weights
-/// keep far-turned bodies from turning (tuning half), and from 1e-5 on a hypothesis with a
-/// stroke on the wrong limb wins on the accuracy suite.
+/// A joint above the drawn chains bends at this many times the price of one on them
+/// (measured: 2 keeps a single arm stroke on its arm rather than twisting the spine to hand
+/// it to the other arm, at no cost on the corpus's held-out half).
+const ABOVE_CHAIN_BEND_FACTOR: f64 = 2.0;
+
+/// Weight of the squared turn (radians) and move (heights) of the character's root away
+/// from the start pose when choosing among hypotheses: a tie-break. Measured against 1e-5
+/// to 1e-3: larger weights keep far-turned bodies from turning (tuning half), and from 1e-5
+/// on a hypothesis with a stroke on the wrong limb wins on the accuracy suite.
 const HYPOTHESIS_ROOT_WEIGHT: f64 = 1e-6;
 
 /// Weight of a stroke's squared length mismatch with its chain (heights) in the score.
@@ -329,21 +334,33 @@ impl<'a> Solver<'a> {
         // Strokes alone cannot always tell a body from its mirror image turned around (ball
         // joints bend either way), so among fits that explain the strokes equally, the one
         // that bends the joints least away from the start pose wins.
+        // A joint that turns a drawn bone bends for its stroke; one above the drawn chains
+        // (a spine twisted so the other arm takes an arm's stroke) costs more.
+        let mut on_chain = vec![false; setup.skeleton.len()];
+        for (chain, _) in assignment.iter().flatten() {
+            chain.iter().for_each(|&b| on_chain[bones[b].joint] = true);
+        }
         let moved: Vec<f64> = (0..setup.skeleton.len())
             .filter(|&j| Some(j) != setup.root && layout.offset(j).is_some())
             .map(|j| {
-                (setup.start.local[j].rotation.inverse() * self.fitter.pose.local[j].rotation)
-                    .angle()
-                    .powi(2)
+                let angle = (setup.start.local[j].rotation.inverse()
+                    * self.fitter.pose.local[j].rotation)
+                    .angle();
+                let factor = if on_chain[j] {
+                    1.0
+                } else {
+                    ABOVE_CHAIN_BEND_FACTOR
+                };
+                factor * angle * angle
             })
             .collect();
         let bend = moved.iter().sum::<f64>() / moved.len().max(1) as f64;
         // And the one that keeps the body where it stood: a few strokes on limbs say little
         // about where the body is, and what was not drawn keeps its pose.
         let turned = setup.root.map_or(0.0, |r| {
-            (setup.start.local[r].rotation.inverse() * self.fitter.pose.local[r].rotation)
-                .angle()
-                .powi(2)
+            let (start, now) = (&setup.start.local[r], &self.fitter.pose.local[r]);
+            (start.rotation.inverse() * now.rotation).angle().powi(2)
+                + ((now.translation - start.translation) / setup.height).norm_squared()
         });
         // And the one the rig's joints can take: limits (from the rig's clips or a joints
         // file) never hold a limb back in the fit, they choose among explanations.
