@@ -42,6 +42,16 @@ fn draw_strokes(
     case
 }
 
+/// The skeleton `rigfit pose` solves with: the rig's, with the ranges its clips show.
+fn posing_skeleton(rig: &rigfit_core::Rig) -> rigfit_core::Skeleton {
+    use rigfit_core::joint_model::{ClipModelOptions, apply_joint_model, ball_limits_from_clips};
+    let mut skeleton = rig.skeleton.clone();
+    let ranges =
+        ball_limits_from_clips(&rig.skeleton, &rig.animations, &ClipModelOptions::default());
+    apply_joint_model(&mut skeleton, &ranges);
+    skeleton
+}
+
 fn bench(c: &mut Criterion) {
     let file = read_rig(
         &pose_suites::asset("assimp/BCN_Epileptic.glb"),
@@ -54,8 +64,9 @@ fn bench(c: &mut Criterion) {
     let strokes = draw_strokes(rig, &truth, 10, 100, 0.03);
     assert_eq!(strokes.len(), 10);
     assert!(strokes.iter().all(|s| s.points.len() == 100));
+    let skeleton = posing_skeleton(rig);
     let problem = PoseProblem {
-        skeleton: &rig.skeleton,
+        skeleton: &skeleton,
         start: &rig.pose,
         strokes: &strokes,
         movable: None,
@@ -72,8 +83,9 @@ fn bench(c: &mut Criterion) {
     let humanoid = rigfit_core::humanoid::humanoid();
     let truth = humanoid.animations[0].sample(&humanoid.pose, 1.0);
     let strokes = draw_strokes(&humanoid, &truth, 6, 100, 0.03);
+    let skeleton = posing_skeleton(&humanoid);
     let problem = PoseProblem {
-        skeleton: &humanoid.skeleton,
+        skeleton: &skeleton,
         start: &humanoid.pose,
         strokes: &strokes,
         movable: None,
@@ -94,8 +106,9 @@ fn bench(c: &mut Criterion) {
             let truth = rig.animations[0].sample(&rig.pose, 1.0);
             let strokes = draw_strokes(rig, &truth, 30, 100, 0.005);
             assert_eq!(strokes.len(), 30);
+            let skeleton = posing_skeleton(rig);
             let problem = PoseProblem {
-                skeleton: &rig.skeleton,
+                skeleton: &skeleton,
                 start: &rig.pose,
                 strokes: &strokes,
                 movable: None,
