@@ -104,17 +104,19 @@ pub(super) fn candidates(
             }
             let length_cost = LENGTH_WEIGHT * mismatch.min(MAX_LENGTH_MISMATCH).powi(2);
             for reversed in [false, true] {
-                let near = distance_cost(stroke, samples, reversed, h);
+                let near = || distance_cost(stroke, samples, reversed, h);
                 // A pinned stroke keeps its chains however far they are.
                 let pinned = setup.strokes.allowed_bones[s].is_some();
                 // Where the chain attaches, then its distance now or its shape turned,
-                // whichever is less.
+                // whichever is less (the distance is measured only for chains that attach
+                // near the stroke, most do not).
                 let cost = if by_shape {
-                    shape_cost(stroke, samples, reversed, h, chain.len().saturating_sub(1))
-                        .map(|(attach, turned)| ATTACH_WEIGHT * attach + turned.min(near))
-                        .or(pinned.then_some(near))
+                    match shape_cost(stroke, samples, reversed, h, chain.len().saturating_sub(1)) {
+                        Some((attach, turned)) => Some(ATTACH_WEIGHT * attach + turned.min(near())),
+                        None => pinned.then(near),
+                    }
                 } else {
-                    Some(near)
+                    Some(near())
                 };
                 if let Some(mut cost) = cost.map(|c| c + length_cost) {
                     if pinned {
