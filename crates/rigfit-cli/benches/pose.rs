@@ -10,6 +10,7 @@ mod pose_suites;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use rand::SeedableRng;
+use rigfit_core::joint_model::with_clip_ranges;
 use rigfit_core::pose::beautify::resample;
 use rigfit_core::pose::cases::{CaseOptions, make_case};
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
@@ -42,16 +43,6 @@ fn draw_strokes(
     case
 }
 
-/// The skeleton `rigfit pose` solves with: the rig's, with the ranges its clips show.
-fn posing_skeleton(rig: &rigfit_core::Rig) -> rigfit_core::Skeleton {
-    use rigfit_core::joint_model::{ClipModelOptions, apply_joint_model, ball_limits_from_clips};
-    let mut skeleton = rig.skeleton.clone();
-    let ranges =
-        ball_limits_from_clips(&rig.skeleton, &rig.animations, &ClipModelOptions::default());
-    apply_joint_model(&mut skeleton, &ranges);
-    skeleton
-}
-
 fn bench(c: &mut Criterion) {
     let file = read_rig(
         &pose_suites::asset("assimp/BCN_Epileptic.glb"),
@@ -64,7 +55,7 @@ fn bench(c: &mut Criterion) {
     let strokes = draw_strokes(rig, &truth, 10, 100, 0.03);
     assert_eq!(strokes.len(), 10);
     assert!(strokes.iter().all(|s| s.points.len() == 100));
-    let skeleton = posing_skeleton(rig);
+    let skeleton = with_clip_ranges(&rig.skeleton, &rig.animations);
     let problem = PoseProblem {
         skeleton: &skeleton,
         start: &rig.pose,
@@ -83,7 +74,7 @@ fn bench(c: &mut Criterion) {
     let humanoid = rigfit_core::humanoid::humanoid();
     let truth = humanoid.animations[0].sample(&humanoid.pose, 1.0);
     let strokes = draw_strokes(&humanoid, &truth, 6, 100, 0.03);
-    let skeleton = posing_skeleton(&humanoid);
+    let skeleton = with_clip_ranges(&humanoid.skeleton, &humanoid.animations);
     let problem = PoseProblem {
         skeleton: &skeleton,
         start: &humanoid.pose,
@@ -106,7 +97,7 @@ fn bench(c: &mut Criterion) {
             let truth = rig.animations[0].sample(&rig.pose, 1.0);
             let strokes = draw_strokes(rig, &truth, 30, 100, 0.005);
             assert_eq!(strokes.len(), 30);
-            let skeleton = posing_skeleton(rig);
+            let skeleton = with_clip_ranges(&rig.skeleton, &rig.animations);
             let problem = PoseProblem {
                 skeleton: &skeleton,
                 start: &rig.pose,

@@ -172,18 +172,19 @@ impl JointSpec {
     }
 }
 
-/// The limits the clips show, every joint kept a ball (hinges spread onto the axes, see
-/// [`JointSpec::as_ball`]): what posing uses by default, to choose among poses that explain
-/// the strokes alike without changing what any joint can do.
-pub fn ball_limits_from_clips(
-    skeleton: &Skeleton,
-    animations: &[Animation],
-    options: &ClipModelOptions,
-) -> Vec<Option<JointSpec>> {
-    joint_model_from_clips(skeleton, animations, options)
-        .into_iter()
-        .map(|spec| spec.map(|s| s.as_ball()))
-        .collect()
+/// `skeleton` with the limits its clips show, every joint kept a ball (hinges spread onto
+/// the axes, see [`JointSpec::as_ball`]): the skeleton posing solves with by default
+/// (`rigfit pose`, `rigfit serve`), its limits choosing among poses that explain the strokes
+/// alike without changing what any joint can do.
+pub fn with_clip_ranges(skeleton: &Skeleton, animations: &[Animation]) -> Skeleton {
+    let ranges: Vec<Option<JointSpec>> =
+        joint_model_from_clips(skeleton, animations, &ClipModelOptions::default())
+            .into_iter()
+            .map(|spec| spec.map(|s| s.as_ball()))
+            .collect();
+    let mut ranged = skeleton.clone();
+    apply_joint_model(&mut ranged, &ranges);
+    ranged
 }
 
 /// Gives each joint its `model` entry (`None` leaves a joint as it is); returns how many

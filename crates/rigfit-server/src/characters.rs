@@ -39,13 +39,7 @@ impl Character {
             .unwrap_or_else(|| id.clone());
         let display_nodes = rig_file.display_nodes();
         let rig = &rig_file.rig;
-        let mut posing_skeleton = rig.skeleton.clone();
-        let ranges = joint_model::ball_limits_from_clips(
-            &rig.skeleton,
-            &rig.animations,
-            &joint_model::ClipModelOptions::default(),
-        );
-        joint_model::apply_joint_model(&mut posing_skeleton, &ranges);
+        let posing_skeleton = joint_model::with_clip_ranges(&rig.skeleton, &rig.animations);
         Self {
             id,
             name,

@@ -11,7 +11,6 @@
 use std::process::ExitCode;
 
 use rigfit_core::pose::PoseOptions;
-use rigfit_core::pose::cases::joint_errors;
 use rigfit_render::{RenderOptions, Scene, chain_colors, render_side_by_side, stroke_colors};
 use rigfit_testkit::sweep::solve_generated;
 use rigfit_testkit::{Corpus, Scenario, generate_case};
@@ -50,13 +49,7 @@ fn run() -> Result<(), String> {
     let solved = solve_generated(&rig, &generated, &PoseOptions::default());
     let strokes = solved.strokes;
     let result = solved.result.map_err(|e| e.to_string())?;
-    let errors = joint_errors(
-        skeleton,
-        &result.pose,
-        &generated.truth,
-        &generated.case.drawn_joints,
-        rig.height,
-    );
+    let errors = generated.errors(&rig, &result.pose);
     println!(
         "{rig_id} {} case {index} ({} target): mean {:.2}%, max {:.2}% at {}",
         scenario.name(),

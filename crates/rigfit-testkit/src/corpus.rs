@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use rigfit_core::Skeleton;
 use rigfit_core::joint_model::{
-    ClipModelOptions, apply_joint_model, ball_limits_from_clips, joint_model_from_clips,
+    ClipModelOptions, apply_joint_model, joint_model_from_clips, with_clip_ranges,
 };
 use rigfit_core::pose::cases::deforming_joints;
 use rigfit_core::{Pose, Rig, Vector3};
@@ -256,7 +256,8 @@ impl Corpus {
         // robot descriptions' converter writes one) or else from the rig's clips: cases are
         // drawn in poses the rig's joints can take.
         rig.tip_skinned_leaves();
-        let plain = rig.skeleton.clone();
+        // What `rigfit pose` sees without `--joints`: ball joints with the clips' ranges.
+        let plain = with_clip_ranges(&rig.skeleton, &rig.animations);
         let sidecar = self.path(entry).with_extension("joints.json");
         let model = if sidecar.is_file() {
             read_joints_file(&sidecar, &rig.skeleton).map_err(|e| CorpusError::Rig {
@@ -267,11 +268,6 @@ impl Corpus {
             joint_model_from_clips(&rig.skeleton, &rig.animations, &ClipModelOptions::default())
         };
         apply_joint_model(&mut rig.skeleton, &model);
-        // What `rigfit pose` sees without `--joints`: ball joints with the clips' ranges.
-        let mut plain = plain;
-        let preferences =
-            ball_limits_from_clips(&plain, &rig.animations, &ClipModelOptions::default());
-        apply_joint_model(&mut plain, &preferences);
         let mut corpus_rig = CorpusRig::new(entry.clone(), rig)?;
         corpus_rig.plain_skeleton = plain;
         Ok(corpus_rig)

@@ -4,8 +4,8 @@
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rigfit_core::pose::cases::{
-    Case, CaseOptions, Coverage, FarPoseOptions, clip_pose, desktop_view, draw_case, far_pose,
-    mirror_pose,
+    Case, CaseOptions, Coverage, FarPoseOptions, JointErrors, clip_pose, desktop_view, draw_case,
+    far_pose, joint_errors, mirror_pose,
 };
 use rigfit_core::{Pose, Skeleton};
 
@@ -134,6 +134,20 @@ pub struct GeneratedCase {
     pub truth: Pose,
     pub case: Case,
     pub options: CaseOptions,
+}
+
+impl GeneratedCase {
+    /// How far `solved`'s drawn joints lie from the truth's on `rig`, as fractions of its
+    /// height.
+    pub fn errors(&self, rig: &CorpusRig, solved: &Pose) -> JointErrors {
+        joint_errors(
+            &rig.rig.skeleton,
+            solved,
+            &self.truth,
+            &self.case.drawn_joints,
+            rig.height,
+        )
+    }
 }
 
 /// The seed of case `index` of `scenario` on rig `rig_id` (FNV-1a of the three, stable

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 use rigfit_core::Stroke;
-use rigfit_core::pose::cases::{joint_errors, limb_motion};
+use rigfit_core::pose::cases::limb_motion;
 use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem, PoseResult, solve_pose};
 
 use crate::corpus::{Corpus, CorpusError, CorpusRig, Half, RigKind};
@@ -262,13 +262,7 @@ pub fn solve_case(
     };
     match result {
         Ok(result) => {
-            let errors = joint_errors(
-                skeleton,
-                &result.pose,
-                &generated.truth,
-                &generated.case.drawn_joints,
-                rig.height,
-            );
+            let errors = generated.errors(rig, &result.pose);
             outcome.misfit = stroke_misfit(skeleton, &result.pose, &generated.case, rig.height);
             outcome.mean_error = errors.mean;
             outcome.max_error = errors.max;

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::anyhow;
-use rigfit_core::joint_model::{ClipModelOptions, apply_joint_model, ball_limits_from_clips};
+use rigfit_core::joint_model::{apply_joint_model, with_clip_ranges};
 use rigfit_core::pose::{PoseOptions, PoseProblem, PoseResult, solve_pose};
 use rigfit_formats::files::{commit_all, stage};
 use rigfit_formats::report::{pose_report, to_text};
@@ -123,9 +123,7 @@ pub fn run(args: &PoseArgs) -> anyhow::Result<String> {
     // choose among poses that explain the strokes alike.
     rig_file.rig.tip_skinned_leaves();
     let rig = &mut rig_file.rig;
-    let preferences =
-        ball_limits_from_clips(&rig.skeleton, &rig.animations, &ClipModelOptions::default());
-    apply_joint_model(&mut rig.skeleton, &preferences);
+    rig.skeleton = with_clip_ranges(&rig.skeleton, &rig.animations);
     if let Some(path) = &args.joints {
         let model = rigfit_formats::joints_file::read_joints_file(path, &rig_file.rig.skeleton)?;
         apply_joint_model(&mut rig_file.rig.skeleton, &model);

@@ -126,13 +126,7 @@ pub struct Outcome {
 pub fn solve_cases(suite: &Suite, options: &PoseOptions, scenario: &CaseOptions) -> Vec<Outcome> {
     let skeleton = &suite.rig.skeleton;
     // As `rigfit pose` does: the ranges the rig's clips show choose among explanations.
-    let mut with_ranges = skeleton.clone();
-    let ranges = rigfit_core::joint_model::ball_limits_from_clips(
-        skeleton,
-        &suite.rig.animations,
-        &rigfit_core::joint_model::ClipModelOptions::default(),
-    );
-    rigfit_core::joint_model::apply_joint_model(&mut with_ranges, &ranges);
+    let with_ranges = rigfit_core::joint_model::with_clip_ranges(skeleton, &suite.rig.animations);
     let height = suite.rig.height();
     suite
         .truths

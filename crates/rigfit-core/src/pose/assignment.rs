@@ -60,6 +60,10 @@ pub(super) type Candidates = Vec<Vec<Candidate>>;
 struct ChainSamples {
     samples: Vec<Point3>,
     length: f64,
+    /// The joints inside the chain, where it can bend.
+    bends: usize,
+    /// The arclength of the samples: how far along them the chain reaches.
+    reach: f64,
 }
 
 /// The candidates of every stroke not `excluded`, at `pose`, judged by shape or by distance.
@@ -75,9 +79,17 @@ pub(super) fn candidates(
     let fk = ForwardKinematics::new(setup.skeleton, pose);
     let sampled: Vec<ChainSamples> = chains
         .iter()
-        .map(|c| ChainSamples {
-            samples: arclength_samples(&model.chain_polyline(c, &fk)).0,
-            length: c.iter().map(|&b| model.bones[b].length).sum(),
+        .map(|c| {
+            let samples = arclength_samples(&model.chain_polyline(c, &fk)).0;
+            let reach = (1..SAMPLES)
+                .map(|i| (samples[i] - samples[i - 1]).norm())
+                .sum();
+            ChainSamples {
+                samples,
+                length: c.iter().map(|&b| model.bones[b].length).sum(),
+                bends: c.len().saturating_sub(1),
+                reach,
+            }
         })
         .collect();
     let translating: Vec<bool> = chains
@@ -97,7 +109,8 @@ pub(super) fn candidates(
             if !setup.stroke_may_cover(s, chain) {
                 continue;
             }
-            let ChainSamples { samples, length } = &sampled[c];
+            let sampled_chain = &sampled[c];
+            let (samples, length) = (&sampled_chain.samples, &sampled_chain.length);
             let mismatch = (stroke_length - length) / length.max(1e-12);
             if mismatch.abs() > MAX_LENGTH_MISMATCH && !translating[c] {
                 continue;
@@ -111,7 +124,7 @@ pub(super) fn candidates(
                 // whichever is less (the distance is measured only for chains that attach
                 // near the stroke, most do not).
                 let cost = if by_shape {
-                    match shape_cost(stroke, samples, reversed, h, chain.len().saturating_sub(1)) {
+                    match shape_cost(stroke, sampled_chain, reversed, h) {
                         Some((attach, turned)) => Some(ATTACH_WEIGHT * attach + turned.min(near())),
                         None => pinned.then(near),
                     }
@@ -148,7 +161,7 @@ fn oriented(stroke: &[Point3], i: usize, reversed: bool) -> Point3 {
 
 /// Mean squared distance at the current pose (heights), the attached end weighed more:
 /// where a chain attaches moves little with the pose, its tip moves most.
-fn distance_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) -> f64 {
+pub(super) fn distance_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) -> f64 {
     let weight = |i: usize| 1.2 - i as f64 / (SAMPLES - 1) as f64;
     let (mut sum, mut weights) = (0.0, 0.0);
     for i in 0..SAMPLES {
@@ -164,15 +177,14 @@ fn distance_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) ->
 /// The turned fit is measured without solving for the rotation: the residual compares the
 /// samples' distances from the attachment (what no turn changes; a lower bound of the
 /// residual after the best turn), and the turn is the angle between the chain's and the
-/// stroke's mean directions from it, priced by how far the chain's tip travels. `bends`
-/// counts the joints inside the chain.
+/// stroke's mean directions from it, priced by how far the chain's tip travels.
 fn shape_cost(
     stroke: &[Point3],
-    chain: &[Point3],
+    sampled: &ChainSamples,
     reversed: bool,
     h: f64,
-    bends: usize,
 ) -> Option<(f64, f64)> {
+    let chain = &sampled.samples;
     let pivot = chain[0];
     if (oriented(stroke, 0, reversed) - pivot).norm() > MAX_ATTACH_DISTANCE * h {
         return None;
@@ -192,14 +204,14 @@ fn shape_cost(
         along_stroke += b;
     }
     let mut residual = residual / SAMPLES as f64 / (h * h);
+    let bends = sampled.bends;
     if bends >= RIGID_CHAIN_BONES {
         // A long chain (a tail, a spine) bends: its samples may come nearer its attachment
         // than its rest shape has them, never farther than its arclength. Only reaching too
         // far is sure; the rest-shape residual counts less the more joints it can bend at.
-        let length: f64 = (1..SAMPLES).map(|i| (chain[i] - chain[i - 1]).norm()).sum();
         let too_far = (0..SAMPLES)
             .map(|i| {
-                let reach = length * i as f64 / (SAMPLES - 1) as f64;
+                let reach = sampled.reach * i as f64 / (SAMPLES - 1) as f64;
                 ((oriented(stroke, i, reversed) - pivot).norm() - reach)
                     .max(0.0)
                     .powi(2)

@@ -3,6 +3,7 @@
 //! same fraction of arclength (a correspondence with no local minima of the kind
 //! nearest-point matching falls into).
 
+use super::assignment::distance_cost;
 use super::setup::Setup;
 use crate::kinematics::ForwardKinematics;
 use crate::math::Point3;
@@ -77,15 +78,6 @@ pub(super) fn better_direction(setup: &Setup, pose: &Pose, s: usize, chain: &[us
     let fk = ForwardKinematics::new(setup.skeleton, pose);
     let (line, _) = arclength_samples(&setup.model.chain_polyline(chain, &fk));
     let stroke = &setup.strokes.by_arclength[s].0;
-    let weighted = |reversed: bool| {
-        (0..SAMPLES)
-            .map(|k| {
-                let i = if reversed { SAMPLES - 1 - k } else { k };
-                let weight = 1.2 - k as f64 / (SAMPLES - 1) as f64;
-                weight * (stroke[i] - line[k]).norm_squared()
-            })
-            .sum::<f64>()
-    };
     let (ahead, back) = (
         sample_distance(stroke, &line, false),
         sample_distance(stroke, &line, true),
@@ -93,7 +85,8 @@ pub(super) fn better_direction(setup: &Setup, pose: &Pose, s: usize, chain: &[us
     if (ahead - back).abs() > DIRECTION_TIE * ahead.max(back) {
         back < ahead
     } else {
-        weighted(true) < weighted(false)
+        let h = setup.height;
+        distance_cost(stroke, &line, true, h) < distance_cost(stroke, &line, false, h)
     }
 }
 

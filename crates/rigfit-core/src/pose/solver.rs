@@ -333,28 +333,37 @@ impl<'a> Solver<'a> {
             / strokes.max(1) as f64;
         // Strokes alone cannot always tell a body from its mirror image turned around (ball
         // joints bend either way), so among fits that explain the strokes equally, the one
-        // that bends the joints least away from the start pose wins.
-        // A joint that turns a drawn bone bends for its stroke; one above the drawn chains
-        // (a spine twisted so the other arm takes an arm's stroke) costs more.
+        // that bends the joints least away from the start pose wins. A joint that turns a
+        // drawn bone bends for its stroke; one above the drawn chains (a spine twisted so the
+        // other arm takes an arm's stroke) costs more.
         let mut on_chain = vec![false; setup.skeleton.len()];
         for (chain, _) in assignment.iter().flatten() {
             chain.iter().for_each(|&b| on_chain[bones[b].joint] = true);
         }
-        let moved: Vec<f64> = (0..setup.skeleton.len())
+        // And the one the rig's joints can take: limits (from the rig's clips or a joints
+        // file) never hold a limb back in the fit, they choose among explanations. Both are
+        // means over the joints that move.
+        let (mut bend, mut outside, mut moved) = (0.0, 0.0, 0usize);
+        for j in (0..setup.skeleton.len())
             .filter(|&j| Some(j) != setup.root && layout.offset(j).is_some())
-            .map(|j| {
-                let angle = (setup.start.local[j].rotation.inverse()
-                    * self.fitter.pose.local[j].rotation)
-                    .angle();
-                let factor = if on_chain[j] {
-                    1.0
-                } else {
-                    ABOVE_CHAIN_BEND_FACTOR
-                };
-                factor * angle * angle
-            })
-            .collect();
-        let bend = moved.iter().sum::<f64>() / moved.len().max(1) as f64;
+        {
+            let joint = setup.skeleton.joint(j);
+            let rotation = &self.fitter.pose.local[j].rotation;
+            let angle = (setup.start.local[j].rotation.inverse() * rotation).angle();
+            let factor = if on_chain[j] {
+                1.0
+            } else {
+                ABOVE_CHAIN_BEND_FACTOR
+            };
+            bend += factor * angle * angle;
+            if let Some(limits) = &joint.limits {
+                let relative = (joint.rest.rotation.inverse() * rotation).scaled_axis();
+                outside += limit_excess(&joint.dof, limits, &relative).norm_squared();
+            }
+            moved += 1;
+        }
+        let bend = bend / moved.max(1) as f64;
+        let outside = outside / moved.max(1) as f64;
         // And the one that keeps the body where it stood: a few strokes on limbs say little
         // about where the body is, and what was not drawn keeps its pose.
         let turned = setup.root.map_or(0.0, |r| {
@@ -362,19 +371,6 @@ impl<'a> Solver<'a> {
             (start.rotation.inverse() * now.rotation).angle().powi(2)
                 + ((now.translation - start.translation) / setup.height).norm_squared()
         });
-        // And the one the rig's joints can take: limits (from the rig's clips or a joints
-        // file) never hold a limb back in the fit, they choose among explanations.
-        let outside: f64 = (0..setup.skeleton.len())
-            .filter(|&j| Some(j) != setup.root && layout.offset(j).is_some())
-            .filter_map(|j| {
-                let joint = setup.skeleton.joint(j);
-                let limits = joint.limits.as_ref()?;
-                let relative = (joint.rest.rotation.inverse() * self.fitter.pose.local[j].rotation)
-                    .scaled_axis();
-                Some(limit_excess(&joint.dof, limits, &relative).norm_squared())
-            })
-            .sum::<f64>()
-            / moved.len().max(1) as f64;
         data + HYPOTHESIS_BEND_WEIGHT * bend
             + HYPOTHESIS_ROOT_WEIGHT * turned
             + HYPOTHESIS_LIMIT_WEIGHT * outside

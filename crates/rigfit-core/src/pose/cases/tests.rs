@@ -29,6 +29,18 @@ fn humanoid_with(extra: &[(&str, &str, [f64; 3])]) -> Rig {
     rig
 }
 
+/// [`far_pose`] with the default options for a rig 1.75 tall with no clips, seeded.
+fn far_pose_of_humanoid(skeleton: &Skeleton, start: &Pose, seed: u64) -> Pose {
+    far_pose(
+        skeleton,
+        start,
+        &[],
+        1.75,
+        &FarPoseOptions::default(),
+        &mut StdRng::seed_from_u64(seed),
+    )
+}
+
 /// Two fingers on the left hand and a helper (an IK pole) hanging from the hips.
 fn hand_and_helper() -> Rig {
     humanoid_with(&[
@@ -185,14 +197,7 @@ fn far_poses_turn_limbs_by_large_angles() {
     let options = FarPoseOptions::default();
     let mut angles = Vec::new();
     for seed in 0..10 {
-        let pose = far_pose(
-            skeleton,
-            &rig.pose,
-            &[],
-            1.75,
-            &options,
-            &mut StdRng::seed_from_u64(seed),
-        );
+        let pose = far_pose_of_humanoid(skeleton, &rig.pose, seed);
         for &j in &roots {
             angles.push(rig.pose.local[j].rotation.angle_to(&pose.local[j].rotation));
         }
@@ -445,14 +450,7 @@ fn long_chains_share_their_bend() {
     let elbow = skeleton.find("LeftForeArm").expect("LeftForeArm");
     let (mut tail_max, mut elbow_max) = (0.0f64, 0.0f64);
     for seed in 0..20 {
-        let pose = far_pose(
-            skeleton,
-            &rig.pose,
-            &[],
-            1.75,
-            &options,
-            &mut StdRng::seed_from_u64(seed),
-        );
+        let pose = far_pose_of_humanoid(skeleton, &rig.pose, seed);
         let turn = |j: usize| rig.pose.local[j].rotation.angle_to(&pose.local[j].rotation);
         tail_max = tail_max.max(turn(vertebra));
         elbow_max = elbow_max.max(turn(elbow));
@@ -486,14 +484,7 @@ fn far_poses_keep_within_the_joint_model() {
     rig.skeleton.set_dof(arm, JointDof::Ball, Some(arm_limits));
     let mut knee_angles = Vec::new();
     for seed in 0..20 {
-        let pose = far_pose(
-            &rig.skeleton,
-            &rig.pose,
-            &[],
-            1.75,
-            &FarPoseOptions::default(),
-            &mut StdRng::seed_from_u64(seed),
-        );
+        let pose = far_pose_of_humanoid(&rig.skeleton, &rig.pose, seed);
         let relative =
             |j: usize| rig.skeleton.joint(j).rest.rotation.inverse() * pose.local[j].rotation;
         // The knee turns about its axis only, within its range.
