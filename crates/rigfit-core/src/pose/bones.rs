@@ -163,6 +163,8 @@ impl BoneModel {
     /// Every chain of up to `max_bones` bones that one stroke could cover: sequences of
     /// bones, each continuing the one before.
     pub fn chains(&self, max_bones: usize) -> Vec<Vec<usize>> {
+        // A tail or a long spine drawn whole must be one candidate, however many bones it has.
+        let max_bones = max_bones.max(self.longest_unbranched_run());
         let mut out = Vec::new();
         let mut stack: Vec<Vec<usize>> = (0..self.bones.len()).map(|b| vec![b]).collect();
         while let Some(chain) = stack.pop() {
@@ -177,6 +179,22 @@ impl BoneModel {
             out.push(chain);
         }
         out
+    }
+
+    /// The most bones in a chain whose inner joints each carry one bone on: a tail, a spine.
+    pub fn longest_unbranched_run(&self) -> usize {
+        (0..self.bones.len())
+            .map(|first| {
+                let (mut bone, mut bones) = (first, 1);
+                // Bounded: a chain of bones never loops, but a malformed one must not hang.
+                while let ([only], true) = (&self.next_bones[bone][..], bones < self.bones.len()) {
+                    bone = *only;
+                    bones += 1;
+                }
+                bones
+            })
+            .max()
+            .unwrap_or(0)
     }
 
     /// The polyline of a chain in world space: the first bone's joint, then every bone's tip.
