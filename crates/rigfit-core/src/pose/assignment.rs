@@ -66,13 +66,16 @@ struct ChainSamples {
     reach: f64,
 }
 
-/// The candidates of every stroke not `excluded`, at `pose`, judged by shape or by distance.
+/// The candidates of every stroke not `excluded`, at `pose`, judged by shape or by distance;
+/// by shape, those costing more than `ceiling` are dropped (the assignment would set their
+/// stroke aside at [`STRAY_COST`] rather than take them).
 pub(super) fn candidates(
     setup: &Setup,
     pose: &Pose,
     chains: &[Vec<usize>],
     excluded: &[bool],
     by_shape: bool,
+    ceiling: f64,
 ) -> Candidates {
     let model = &setup.model;
     let h = setup.height;
@@ -136,7 +139,7 @@ pub(super) fn candidates(
                         // Cheaper than a stray, in the same order.
                         cost = 0.5 * STRAY_COST * cost / (cost + STRAY_COST);
                     }
-                    if !by_shape || pinned || cost <= STRAY_COST {
+                    if !by_shape || pinned || cost <= ceiling {
                         list.push(Candidate {
                             cost,
                             chain: c,

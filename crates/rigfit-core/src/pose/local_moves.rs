@@ -36,6 +36,7 @@ pub(super) fn improve(solver: &mut Solver, mut fit: ChainFit) -> ChainFit {
         }
         let mut improved = swap_mirror_limbs(solver, &mut fit);
         improved |= trade_strays(solver, &mut fit);
+        improved |= give_strays_free_chains(solver, &mut fit);
         improved |= take_close_chains(solver, &mut fit);
         improved |= move_to_free_chains(solver, &mut fit);
         if !improved {
@@ -51,6 +52,17 @@ impl Solver<'_> {
     /// explains the strokes better than `fit`, fits it fully and makes it `fit`. Otherwise
     /// the pose is restored.
     fn accept(&mut self, trial: Vec<Assignment>, fit: &mut ChainFit) -> bool {
+        self.accept_judged_after(trial, fit, QUICK_FIT_STEPS)
+    }
+
+    /// [`Solver::accept`] judging `trial` after `judge_steps` fitting steps (a limb that
+    /// must swing far to reach its stroke needs more than the quick fit).
+    fn accept_judged_after(
+        &mut self,
+        trial: Vec<Assignment>,
+        fit: &mut ChainFit,
+        judge_steps: usize,
+    ) -> bool {
         if self.trials_left == 0 {
             return false;
         }
@@ -58,7 +70,7 @@ impl Solver<'_> {
         let saved = self.fitter.pose.clone();
         let layout = self.fitter.keep_unexplained_at_start(&self.setup, &trial);
         self.fitter
-            .fit_arclength(&self.setup, &layout, &trial, QUICK_FIT_STEPS);
+            .fit_arclength(&self.setup, &layout, &trial, judge_steps);
         if self.score(&trial, &layout) < fit.score {
             self.fitter
                 .fit_arclength(&self.setup, &layout, &trial, FULL_FIT_STEPS);
@@ -72,6 +84,11 @@ impl Solver<'_> {
     }
 
     fn ranked_now(&self) -> Candidates {
+        self.ranked_below(STRAY_COST)
+    }
+
+    /// The candidates at the current pose, by shape those costing at most `ceiling`.
+    fn ranked_below(&self, ceiling: f64) -> Candidates {
         let none = vec![false; self.setup.strokes.count()];
         candidates(
             &self.setup,
@@ -79,6 +96,7 @@ impl Solver<'_> {
             &self.chains,
             &none,
             self.by_shape,
+            ceiling,
         )
     }
 
@@ -167,6 +185,47 @@ fn trade_strays(solver: &mut Solver, fit: &mut ChainFit) -> bool {
     }
     improved
 }
+
+/// A stroke set aside because no chain looked like it at the start pose (a limb drawn bent
+/// far from its shape there) may still be one: give it the free chains that fit it best,
+/// however much they must bend, and let the fit judge.
+fn give_strays_free_chains(solver: &mut Solver, fit: &mut ChainFit) -> bool {
+    let strokes = fit.assignment.len();
+    let mut improved = false;
+    let set_aside: Vec<usize> = (0..strokes)
+        .filter(|&e| fit.assignment[e].is_none())
+        .collect();
+    if set_aside.is_empty() || set_aside.len() > MAX_STRAY_EXCHANGES {
+        return false;
+    }
+    let mut ranked = solver.ranked_below(f64::INFINITY);
+    for e in set_aside {
+        let mut used = vec![false; solver.setup.model.bones.len()];
+        fit.assignment
+            .iter()
+            .flatten()
+            .for_each(|(c, _)| c.iter().for_each(|&b| used[b] = true));
+        let picks: Vec<_> = ranked[e]
+            .iter()
+            .filter(|c| solver.chains[c.chain].iter().all(|&b| !used[b]))
+            .take(FREE_CHAINS_TRIED)
+            .copied()
+            .collect();
+        for pick in picks {
+            let mut trial = fit.assignment.clone();
+            trial[e] = Some((solver.chains[pick.chain].clone(), pick.reversed));
+            if solver.accept_judged_after(trial, fit, FULL_FIT_STEPS) {
+                improved = true;
+                ranked = solver.ranked_below(f64::INFINITY);
+                break;
+            }
+        }
+    }
+    improved
+}
+
+/// Free chains tried for a stroke set aside.
+const FREE_CHAINS_TRIED: usize = 2;
 
 /// Give a stroke one of its best candidate chains at the current pose, and let the strokes
 /// whose chains that takes pick again.

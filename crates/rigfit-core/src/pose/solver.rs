@@ -4,7 +4,7 @@
 //! step, the paper's annealing over all bones.
 
 use super::annealing::{anneal, bones_by_weight, energy, schedule, settle};
-use super::assignment::{assign, candidates};
+use super::assignment::{STRAY_COST, assign, candidates};
 use super::chains::{Assignment, stroke_length, stroke_residuals};
 use super::fitting::{FULL_FIT_STEPS, Fitter};
 use super::local_moves::improve;
@@ -297,6 +297,7 @@ impl<'a> Solver<'a> {
             &self.chains,
             excluded,
             self.by_shape,
+            STRAY_COST,
         );
         assign(
             &self.setup,
