@@ -161,10 +161,10 @@ impl BoneModel {
     }
 
     /// Every chain of up to `max_bones` bones that one stroke could cover: sequences of
-    /// bones, each continuing the one before.
+    /// bones, each continuing the one before; and every longer unbranched run whole (a tail
+    /// or a long spine drawn in one stroke), from the joint it leaves to its end or the next
+    /// branch.
     pub fn chains(&self, max_bones: usize) -> Vec<Vec<usize>> {
-        // A tail or a long spine drawn whole must be one candidate, however many bones it has.
-        let max_bones = max_bones.max(self.longest_unbranched_run());
         let mut out = Vec::new();
         let mut stack: Vec<Vec<usize>> = (0..self.bones.len()).map(|b| vec![b]).collect();
         while let Some(chain) = stack.pop() {
@@ -178,23 +178,27 @@ impl BoneModel {
             }
             out.push(chain);
         }
+        // A bone continues a run when it is the only continuation of the bone before it.
+        let mut continues_run = vec![false; self.bones.len()];
+        for next in &self.next_bones {
+            if let [only] = next[..] {
+                continues_run[only] = true;
+            }
+        }
+        for first in (0..self.bones.len()).filter(|&b| !continues_run[b]) {
+            let mut run = vec![first];
+            // Bounded: bones never loop, but a malformed model must not hang.
+            while let ([only], true) = (
+                &self.next_bones[*run.last().expect("runs are never empty")][..],
+                run.len() <= self.bones.len(),
+            ) {
+                run.push(*only);
+            }
+            if run.len() > max_bones {
+                out.push(run);
+            }
+        }
         out
-    }
-
-    /// The most bones in a chain whose inner joints each carry one bone on: a tail, a spine.
-    pub fn longest_unbranched_run(&self) -> usize {
-        (0..self.bones.len())
-            .map(|first| {
-                let (mut bone, mut bones) = (first, 1);
-                // Bounded: a chain of bones never loops, but a malformed one must not hang.
-                while let ([only], true) = (&self.next_bones[bone][..], bones < self.bones.len()) {
-                    bone = *only;
-                    bones += 1;
-                }
-                bones
-            })
-            .max()
-            .unwrap_or(0)
     }
 
     /// The polyline of a chain in world space: the first bone's joint, then every bone's tip.
@@ -207,5 +211,46 @@ impl BoneModel {
             line.push(fk.position(self.bones[b].child));
         }
         line
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::{Trs, Vector3};
+    use crate::skeleton::Joint;
+
+    /// A root with a 3-bone arm and a 40-bone tail.
+    fn tailed() -> Skeleton {
+        let mut joints = vec![Joint::new(
+            "root",
+            None,
+            Trs::from_translation(Vector3::zeros()),
+        )];
+        for i in 0..3 {
+            let parent = if i == 0 { 0 } else { joints.len() - 1 };
+            let offset = Trs::from_translation(Vector3::new(0.1, 0.0, 0.0));
+            joints.push(Joint::new(format!("arm{i}"), Some(parent), offset));
+        }
+        for i in 0..40 {
+            let parent = if i == 0 { 0 } else { joints.len() - 1 };
+            let offset = Trs::from_translation(Vector3::new(0.0, -0.05, 0.0));
+            joints.push(Joint::new(format!("tail{i}"), Some(parent), offset));
+        }
+        let mut s = Skeleton::new(joints).expect("a tree");
+        s.set_default_dofs();
+        s
+    }
+
+    #[test]
+    fn a_run_longer_than_the_chain_limit_is_one_chain_whole() {
+        let skeleton = tailed();
+        let model = BoneModel::new(&skeleton, &skeleton.rest_pose(), 0.01, 1e-6);
+        let chains = model.chains(24);
+        assert!(chains.iter().any(|c| c.len() == 40), "the whole tail");
+        assert!(chains.iter().all(|c| c.len() <= 24 || c.len() == 40));
+        // Only the run from where it leaves the root, not its every tail end.
+        assert_eq!(chains.iter().filter(|c| c.len() > 24).count(), 1);
+        assert!(chains.iter().any(|c| c.len() == 3), "the arm");
     }
 }
