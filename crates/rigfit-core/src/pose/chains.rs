@@ -6,7 +6,7 @@
 use super::assignment::distance_cost;
 use super::setup::Setup;
 use crate::kinematics::ForwardKinematics;
-use crate::math::Point3;
+use crate::math::{Point3, Vector3};
 use crate::skeleton::Pose;
 
 /// Samples compared per stroke and chain.
@@ -111,6 +111,33 @@ pub(super) fn stroke_residuals(setup: &Setup, pose: &Pose, assignment: &[Assignm
         .collect()
 }
 
+/// Stroke samples a translating bone's stretch of stroke is fitted with.
+const LINE_FIT_SAMPLES: usize = 16;
+
+/// The ends of the least-squares line through the stroke between arclength fractions
+/// `span` (samples evenly spaced in arclength, fitted against their fraction).
+fn fitted_line(stroke: &[Point3], cum: &[f64], span: (f64, f64)) -> (Point3, Point3) {
+    let n = LINE_FIT_SAMPLES;
+    let t_mean = 0.5;
+    let (mut p_mean, mut covariance, mut variance) = (Vector3::zeros(), Vector3::zeros(), 0.0);
+    let samples: Vec<(f64, Point3)> = (0..n)
+        .map(|i| {
+            let t = i as f64 / (n - 1) as f64;
+            (t, at(stroke, cum, span.0 + t * (span.1 - span.0)))
+        })
+        .collect();
+    for (_, p) in &samples {
+        p_mean += p.coords / n as f64;
+    }
+    for (t, p) in &samples {
+        covariance += (p.coords - p_mean) * (t - t_mean);
+        variance += (t - t_mean).powi(2);
+    }
+    let slope = covariance / variance;
+    let at_t = |t: f64| Point3::from(p_mean + slope * (t - t_mean));
+    (at_t(0.0), at_t(1.0))
+}
+
 /// For each model point on an assigned chain, the stroke point at the same fraction of
 /// arclength (bone lengths give the model's fractions), with weight 1.
 pub(super) fn arclength_targets(
@@ -133,9 +160,22 @@ pub(super) fn arclength_targets(
         let mut before = 0.0;
         for &b in chain {
             let bone = &model.bones[b];
+            let span = (
+                before / total.max(1e-12),
+                (before + bone.length) / total.max(1e-12),
+            );
+            // A translating bone's weight sits at its ends: each end goes where the straight
+            // line fitted to its stretch of stroke puts it, not to one noisy stroke point.
+            let fitted = bone
+                .tip_translates
+                .then(|| fitted_line(&stroke, &cum, span));
             for k in model.bone_points[b].clone() {
-                let u = (before + model.points[k].along * bone.length) / total.max(1e-12);
-                targets[k] = Some((at(&stroke, &cum, u), 1.0));
+                let along = model.points[k].along;
+                let target = match fitted {
+                    Some((start, end)) => start + (end - start) * along,
+                    None => at(&stroke, &cum, span.0 + along * (span.1 - span.0)),
+                };
+                targets[k] = Some((target, 1.0));
             }
             before += bone.length;
         }
