@@ -79,8 +79,9 @@ impl Rig {
         }
     }
 
-    /// Gives translation degrees of freedom ([`JointDof::Free`]) to every movable joint
-    /// below the root whose animations move its translation (markers, IK goals, BVH
+    /// Gives translation degrees of freedom ([`JointDof::Free`]) to every joint of the
+    /// character (skin joints and the helpers linking them) whose animations move its
+    /// translation (markers, IK goals, BVH
     /// position channels that change): posing and tracking must move them as the file
     /// does. Returns how many joints were freed.
     pub fn free_translating_joints(&mut self) -> usize {
@@ -99,11 +100,14 @@ impl Rig {
             }
         }
         let mut freed = 0;
+        let linking = self.skeleton.linking_helpers();
         for (j, &moves) in translates.iter().enumerate() {
             let joint = self.skeleton.joint(j);
-            // Helpers above the character (IK goals, sockets) stay fixed: strokes never
-            // pull them.
-            if moves && joint.kind != JointKind::Helper && joint.dof != JointDof::Free {
+            // Helpers above the character or hanging off it (IK goals, sockets) stay fixed:
+            // strokes never pull them. A helper linking skin joints (a hip node a clip drops
+            // from the body) is part of the character and moves as the file moves it.
+            let of_the_character = joint.kind != JointKind::Helper || linking[j];
+            if moves && of_the_character && joint.dof != JointDof::Free {
                 let limits = joint.limits;
                 self.skeleton.set_dof(j, JointDof::Free, limits);
                 freed += 1;

@@ -63,7 +63,12 @@ impl BoneModel {
         // Each joint's anchor: itself, or the first ancestor reached through zero-length links.
         let mut anchor: Vec<usize> = (0..skeleton.len()).collect();
         for j in 0..skeleton.len() {
-            if let Some(p) = skeleton.joint(j).parent {
+            // A joint that translates is a bone's tip however near its parent it rests.
+            if let Some(p) = skeleton
+                .joint(j)
+                .parent
+                .filter(|_| skeleton.joint(j).dof != JointDof::Free)
+            {
                 if (fk.position(j) - fk.position(p)).norm() < min_length {
                     anchor[j] = anchor[p];
                 }
@@ -81,12 +86,12 @@ impl BoneModel {
             }
             let (a, b) = (fk.position(j), fk.position(c));
             let length = (b - a).norm();
-            if length < min_length {
+            let tip_translates = skeleton.joint(c).dof == JointDof::Free;
+            if length < min_length && !tip_translates {
                 continue;
             }
             // `as usize` saturates (and maps NaN to 0): the count stays within 1..=MAX.
             let n = ((length / spacing).round() as usize).clamp(1, MAX_POINTS_PER_BONE);
-            let tip_translates = skeleton.joint(c).dof == JointDof::Free;
             let start = points.len();
             if tip_translates {
                 // Only the ends are known to move with the joints: one point where the bone

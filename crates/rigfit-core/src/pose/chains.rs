@@ -138,8 +138,40 @@ fn fitted_line(stroke: &[Point3], cum: &[f64], span: (f64, f64)) -> (Point3, Poi
     (at_t(0.0), at_t(1.0))
 }
 
+/// Translating bones together shorter than this share of a stroke have no length to go by.
+const ZERO_LENGTH_SHARE: f64 = 1e-3;
+
+/// How much of a stroke `drawn` long each bone of `chain` covers: its rest length; but when
+/// the chain's translating bones have next to none (a hip a clip drops from the body it
+/// rests in), they share alike what the stroke has beyond the other bones.
+fn drawn_lengths(setup: &Setup, chain: &[usize], drawn: f64) -> Vec<f64> {
+    let bones = &setup.model.bones;
+    let (mut turning, mut translating, mut translating_count) = (0.0, 0.0, 0usize);
+    for &b in chain {
+        if bones[b].tip_translates {
+            translating += bones[b].length;
+            translating_count += 1;
+        } else {
+            turning += bones[b].length;
+        }
+    }
+    // A noisy stroke is longer than the path it follows: the rest lengths give the shares
+    // whenever they can.
+    if translating_count == 0 || translating > ZERO_LENGTH_SHARE * drawn.max(turning) {
+        return chain.iter().map(|&b| bones[b].length).collect();
+    }
+    let slack = (drawn - turning).max(0.0);
+    chain
+        .iter()
+        .map(|&b| match bones[b].tip_translates {
+            false => bones[b].length,
+            true => slack / translating_count as f64,
+        })
+        .collect()
+}
+
 /// For each model point on an assigned chain, the stroke point at the same fraction of
-/// arclength (bone lengths give the model's fractions), with weight 1.
+/// arclength (bone lengths give the model's fractions, [`drawn_lengths`]), with weight 1.
 pub(super) fn arclength_targets(
     setup: &Setup,
     assignment: &[Assignment],
@@ -156,13 +188,14 @@ pub(super) fn arclength_targets(
         }
         let cum = cumulative(&stroke);
         // The stroke now runs from the chain's root end to its tip.
-        let total: f64 = chain.iter().map(|&b| model.bones[b].length).sum();
+        let lengths = drawn_lengths(setup, chain, *cum.last().unwrap_or(&0.0));
+        let total: f64 = lengths.iter().sum();
         let mut before = 0.0;
-        for &b in chain {
+        for (&b, &length) in chain.iter().zip(&lengths) {
             let bone = &model.bones[b];
             let span = (
                 before / total.max(1e-12),
-                (before + bone.length) / total.max(1e-12),
+                (before + length) / total.max(1e-12),
             );
             // A translating bone's weight sits at its ends: each end goes where the straight
             // line fitted to its stretch of stroke puts it, not to one noisy stroke point.
@@ -177,7 +210,7 @@ pub(super) fn arclength_targets(
                 };
                 targets[k] = Some((target, 1.0));
             }
-            before += bone.length;
+            before += length;
         }
     }
     targets
