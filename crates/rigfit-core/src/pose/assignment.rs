@@ -11,6 +11,8 @@
 //! from where it is now still find its stroke; the price of turning keeps a leg raised
 //! upright from taking the spine's stroke when the spine's own fits as well.
 
+use std::ops::Range;
+
 use super::chains::{Assignment, SAMPLES, arclength_samples};
 use super::setup::Setup;
 use crate::kinematics::ForwardKinematics;
@@ -471,17 +473,26 @@ fn least_cost(
                 .map_or(STRAY_COST, |c| c.cost.min(STRAY_COST));
             least_after[i] = least_after[i + 1] + least;
         }
-        let bone_words: Vec<Vec<BoneWords>> = strokes
+        // Per depth, each candidate's cost and where its bone words lie in `words`.
+        let mut words: Vec<(usize, u64)> = Vec::new();
+        let options: Vec<Vec<SearchOption>> = strokes
             .iter()
             .map(|&s| {
                 (candidates[s].iter())
-                    .map(|c| bone_words(&chains[c.chain]))
+                    .map(|c| {
+                        let start = words.len();
+                        add_bone_words(&chains[c.chain], &mut words);
+                        SearchOption {
+                            cost: c.cost,
+                            words: start..words.len(),
+                        }
+                    })
                     .collect()
             })
             .collect();
         let mut search = GroupSearch {
-            bone_words: &bone_words,
-            candidates,
+            options: &options,
+            words: &words,
             strokes: &strokes,
             least_after,
             used: &mut used,
@@ -509,27 +520,31 @@ fn group_cost(candidates: &Candidates, strokes: &[usize], picks: &[Option<usize>
         .sum()
 }
 
-/// A chain's bones as the words of a bit set over the bones that hold any: (word, bits).
-type BoneWords = Vec<(usize, u64)>;
-
-/// The [`BoneWords`] of `chain`.
-fn bone_words(chain: &[usize]) -> BoneWords {
-    let mut words: BoneWords = Vec::with_capacity(2);
+/// Appends `chain`'s bones to `words` as the words of a bit set over the bones that hold
+/// any of them: (word, bits).
+fn add_bone_words(chain: &[usize], words: &mut Vec<(usize, u64)>) {
+    let start = words.len();
     for &b in chain {
         let (word, bit) = (b / 64, 1u64 << (b % 64));
-        match words.iter_mut().find(|(w, _)| *w == word) {
+        match words[start..].iter_mut().find(|(w, _)| *w == word) {
             Some((_, bits)) => *bits |= bit,
             None => words.push((word, bit)),
         }
     }
-    words
+}
+
+/// A candidate as the search sees it: its cost and the range of its chain's bone words.
+struct SearchOption {
+    cost: f64,
+    words: Range<usize>,
 }
 
 /// Depth-first branch and bound over one group's strokes.
 struct GroupSearch<'a> {
-    /// Per depth, the bones of each candidate of its stroke.
-    bone_words: &'a [Vec<BoneWords>],
-    candidates: &'a Candidates,
+    /// Per depth, the candidates of its stroke, best first.
+    options: &'a [Vec<SearchOption>],
+    /// The bone words of every candidate's chain (see [`add_bone_words`]).
+    words: &'a [(usize, u64)],
     strokes: &'a [usize],
     /// The least the strokes from each depth on can cost (a bound, conflicts ignored).
     least_after: Vec<f64>,
@@ -547,21 +562,21 @@ impl GroupSearch<'_> {
         if self.nodes > SEARCH_BUDGET {
             return;
         }
-        let Some(&s) = self.strokes.get(depth) else {
+        if depth == self.strokes.len() {
             if cost < self.best_cost {
                 self.best_cost = cost;
                 self.best.clone_from(&self.picks);
             }
             return;
-        };
+        }
         let rest = self.least_after[depth + 1];
-        for k in 0..self.candidates[s].len() {
-            let c = self.candidates[s][k];
+        let options = self.options;
+        for (k, c) in options[depth].iter().enumerate() {
             // Candidates come best first: once one cannot beat the best, none after can.
             if cost + c.cost + rest >= self.best_cost - 1e-12 {
                 break;
             }
-            let words = &self.bone_words[depth][k];
+            let words = &self.words[c.words.clone()];
             if words.iter().any(|&(w, bits)| self.used[w] & bits != 0) {
                 continue;
             }
