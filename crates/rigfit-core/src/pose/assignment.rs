@@ -11,8 +11,6 @@
 //! from where it is now still find its stroke; the price of turning keeps a leg raised
 //! upright from taking the spine's stroke when the spine's own fits as well.
 
-use std::ops::Range;
-
 use super::chains::{Assignment, SAMPLES, arclength_samples};
 use super::setup::Setup;
 use crate::kinematics::ForwardKinematics;
@@ -415,10 +413,9 @@ fn least_cost(
     greedy: Vec<Assignment>,
 ) -> Vec<Assignment> {
     let bones = setup.model.bones.len();
-    // The bones in use, as a bit set (the search tests and marks whole chains at once).
-    let mut used = vec![0u64; bones.div_ceil(64)];
+    let mut used = vec![false; bones];
     for (chain, _) in fixed.iter().flatten() {
-        chain.iter().for_each(|&b| used[b / 64] |= 1 << (b % 64));
+        chain.iter().for_each(|&b| used[b] = true);
     }
     let free: Vec<usize> = (0..candidates.len())
         .filter(|&s| fixed[s].is_none() && !excluded[s])
@@ -452,9 +449,26 @@ fn least_cost(
     for &s in &free {
         members.entry(find(&mut group, s)).or_default().push(s);
     }
+    // Per bone, the strokes' candidates that cover it: (depth of the stroke in its group's
+    // search, the candidates as bits). A group's bones are its own.
+    let mut covered_by: Vec<Vec<(usize, u64)>> = vec![Vec::new(); bones];
     for mut strokes in members.into_values() {
         // The strokes with the fewest choices are decided first (the search narrows fastest).
         strokes.sort_by_key(|&s| candidates[s].len());
+        let depths = strokes.len();
+        // Candidates a fixed chain's bones already rule out, per depth; then the rest.
+        let mut blocked = vec![0u64; (depths + 1) * depths];
+        for (depth, &s) in strokes.iter().enumerate() {
+            for (k, c) in candidates[s].iter().enumerate() {
+                for &b in &chains[c.chain] {
+                    blocked[depth] |= u64::from(used[b]) << k;
+                    match covered_by[b].last_mut() {
+                        Some((d, bits)) if *d == depth => *bits |= 1 << k,
+                        _ => covered_by[b].push((depth, 1 << k)),
+                    }
+                }
+            }
+        }
         let start: Vec<Option<usize>> = strokes
             .iter()
             .map(|&s| {
@@ -473,29 +487,13 @@ fn least_cost(
                 .map_or(STRAY_COST, |c| c.cost.min(STRAY_COST));
             least_after[i] = least_after[i + 1] + least;
         }
-        // Per depth, each candidate's cost and where its bone words lie in `words`.
-        let mut words: Vec<(usize, u64)> = Vec::new();
-        let options: Vec<Vec<SearchOption>> = strokes
-            .iter()
-            .map(|&s| {
-                (candidates[s].iter())
-                    .map(|c| {
-                        let start = words.len();
-                        add_bone_words(&chains[c.chain], &mut words);
-                        SearchOption {
-                            cost: c.cost,
-                            words: start..words.len(),
-                        }
-                    })
-                    .collect()
-            })
-            .collect();
         let mut search = GroupSearch {
-            options: &options,
-            words: &words,
+            chains,
+            candidates,
+            covered_by: &covered_by,
             strokes: &strokes,
             least_after,
-            used: &mut used,
+            blocked,
             picks: vec![None; strokes.len()],
             best: start.clone(),
             best_cost: group_cost(candidates, &strokes, &start),
@@ -520,36 +518,21 @@ fn group_cost(candidates: &Candidates, strokes: &[usize], picks: &[Option<usize>
         .sum()
 }
 
-/// Appends `chain`'s bones to `words` as the words of a bit set over the bones that hold
-/// any of them: (word, bits).
-fn add_bone_words(chain: &[usize], words: &mut Vec<(usize, u64)>) {
-    let start = words.len();
-    for &b in chain {
-        let (word, bit) = (b / 64, 1u64 << (b % 64));
-        match words[start..].iter_mut().find(|(w, _)| *w == word) {
-            Some((_, bits)) => *bits |= bit,
-            None => words.push((word, bit)),
-        }
-    }
-}
-
-/// A candidate as the search sees it: its cost and the range of its chain's bone words.
-struct SearchOption {
-    cost: f64,
-    words: Range<usize>,
-}
+// A stroke's candidates are bits of a `u64` in the search.
+const _: () = assert!(KEPT_CANDIDATES <= 64);
 
 /// Depth-first branch and bound over one group's strokes.
 struct GroupSearch<'a> {
-    /// Per depth, the candidates of its stroke, best first.
-    options: &'a [Vec<SearchOption>],
-    /// The bone words of every candidate's chain (see [`add_bone_words`]).
-    words: &'a [(usize, u64)],
+    chains: &'a [Vec<usize>],
+    candidates: &'a Candidates,
+    /// Per bone, the candidates that cover it: (depth, candidates as bits).
+    covered_by: &'a [Vec<(usize, u64)>],
     strokes: &'a [usize],
     /// The least the strokes from each depth on can cost (a bound, conflicts ignored).
     least_after: Vec<f64>,
-    /// The bones in use, as a bit set.
-    used: &'a mut Vec<u64>,
+    /// Per depth of the search, then per depth: the candidates (as bits) whose bones the
+    /// chains picked above it, or fixed ones, already cover.
+    blocked: Vec<u64>,
     picks: Vec<Option<usize>>,
     best: Vec<Option<usize>>,
     best_cost: f64,
@@ -562,32 +545,60 @@ impl GroupSearch<'_> {
         if self.nodes > SEARCH_BUDGET {
             return;
         }
-        if depth == self.strokes.len() {
+        let Some(&s) = self.strokes.get(depth) else {
             if cost < self.best_cost {
                 self.best_cost = cost;
                 self.best.clone_from(&self.picks);
             }
             return;
-        }
+        };
         let rest = self.least_after[depth + 1];
-        let options = self.options;
-        for (k, c) in options[depth].iter().enumerate() {
-            // Candidates come best first: once one cannot beat the best, none after can.
-            if cost + c.cost + rest >= self.best_cost - 1e-12 {
+        let depths = self.strokes.len();
+        let list = &self.candidates[s];
+        // The candidates no chain picked above (or fixed) rules out, in order.
+        let all = u64::MAX.checked_shr(64 - list.len() as u32).unwrap_or(0);
+        let mut open = !self.blocked[depth * depths + depth] & all;
+        // Costs come sorted (NaN last): the last that is a number.
+        let last_number = list.iter().rposition(|c| !c.cost.is_nan());
+        while open != 0 {
+            let k = open.trailing_zeros() as usize;
+            open &= open - 1;
+            let c = list[k];
+            // Candidates come best first: once one cannot beat the best, none after can
+            // (those ruled out are skipped unjudged: one of them that cannot beat the best
+            // means this one cannot either, unless this one's cost is no number).
+            let judged = match last_number {
+                Some(j) if c.cost.is_nan() && j < k => list[j],
+                _ => c,
+            };
+            if cost + judged.cost + rest >= self.best_cost - 1e-12 {
                 break;
             }
-            let words = &self.words[c.words.clone()];
-            if words.iter().any(|&(w, bits)| self.used[w] & bits != 0) {
-                continue;
-            }
-            words.iter().for_each(|&(w, bits)| self.used[w] |= bits);
+            let chains = self.chains;
+            self.block_below(depth, &chains[c.chain]);
             self.picks[depth] = Some(k);
             self.descend(depth + 1, cost + c.cost);
-            words.iter().for_each(|&(w, bits)| self.used[w] &= !bits);
         }
         self.picks[depth] = None;
         if cost + STRAY_COST + rest < self.best_cost - 1e-12 {
+            self.block_below(depth, &[]);
             self.descend(depth + 1, cost + STRAY_COST);
+        }
+    }
+
+    /// The candidates blocked below `depth` once `chain` is picked there: those blocked at
+    /// `depth`, and those covering a bone of `chain`.
+    fn block_below(&mut self, depth: usize, chain: &[usize]) {
+        let depths = self.strokes.len();
+        let (above, below) = self.blocked.split_at_mut((depth + 1) * depths);
+        below[depth + 1..depths]
+            .copy_from_slice(&above[depth * depths + depth + 1..][..depths - depth - 1]);
+        for &b in chain {
+            for &(d, bits) in &self.covered_by[b] {
+                if d > depth {
+                    below[d] |= bits;
+                }
+            }
         }
     }
 }
