@@ -239,34 +239,24 @@ fn oriented(stroke: &[Point3], i: usize, reversed: bool) -> Point3 {
 /// Mean squared distance at the current pose (heights), the attached end weighed more:
 /// where a chain attaches moves little with the pose, its tip moves most.
 pub(super) fn distance_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) -> f64 {
+    let (weights, weight_sum) = &DISTANCE_WEIGHTS;
     let mut sum = 0.0;
-    for (i, weight) in DISTANCE_WEIGHTS.iter().enumerate() {
+    for (i, weight) in weights.iter().enumerate() {
         sum += weight * (oriented(stroke, i, reversed) - chain[i]).norm_squared();
     }
-    sum / DISTANCE_WEIGHT_SUM / (h * h)
+    sum / weight_sum / (h * h)
 }
 
 /// The weight of each sample in [`distance_cost`], from the attached end (1.2) to the tip
-/// (0.2).
-const DISTANCE_WEIGHTS: [f64; SAMPLES] = {
-    let mut weights = [0.0; SAMPLES];
-    let mut i = 0;
+/// (0.2), and their sum (added in order).
+const DISTANCE_WEIGHTS: ([f64; SAMPLES], f64) = {
+    let (mut weights, mut sum, mut i) = ([0.0; SAMPLES], 0.0, 0);
     while i < SAMPLES {
         weights[i] = 1.2 - i as f64 / (SAMPLES - 1) as f64;
+        sum += weights[i];
         i += 1;
     }
-    weights
-};
-
-/// The sum of [`DISTANCE_WEIGHTS`], added in order.
-const DISTANCE_WEIGHT_SUM: f64 = {
-    let mut sum = 0.0;
-    let mut i = 0;
-    while i < SAMPLES {
-        sum += DISTANCE_WEIGHTS[i];
-        i += 1;
-    }
-    sum
+    (weights, sum)
 };
 
 /// Where the chain attaches (the mean squared distance of the stroke's and the chain's
