@@ -56,14 +56,35 @@ pub(super) struct Candidate {
 /// Per stroke, its candidates, best first.
 pub(super) type Candidates = Vec<Vec<Candidate>>;
 
-/// Every chain at `pose` sampled by arclength, with its length and where it attaches.
+/// A chain at `pose` sampled by arclength, with where it can bend and how far it reaches.
 struct ChainSamples {
     samples: Vec<Point3>,
-    length: f64,
     /// The joints inside the chain, where it can bend.
     bends: usize,
     /// The arclength of the samples: how far along them the chain reaches.
     reach: f64,
+    /// The samples seen from where the chain attaches (its first sample).
+    from_pivot: FromPivot,
+}
+
+/// Arclength samples seen from a pivot: the distance of each from it, and the sum of the
+/// vectors from it to them (what [`shape_cost`] compares between a chain and a stroke).
+struct FromPivot {
+    distances: [f64; SAMPLES],
+    along: Vector3,
+}
+
+impl FromPivot {
+    /// `SAMPLES` arclength samples (`oriented` from the chain's root end) seen from `pivot`.
+    fn new(samples: impl Fn(usize) -> Point3, pivot: Point3) -> Self {
+        let (mut distances, mut along) = ([0.0; SAMPLES], Vector3::zeros());
+        for (i, distance) in distances.iter_mut().enumerate() {
+            let v: Vector3 = samples(i) - pivot;
+            *distance = v.norm();
+            along += v;
+        }
+        Self { distances, along }
+    }
 }
 
 /// The candidates of every stroke not `excluded`, at `pose`, judged by shape or by distance;
@@ -80,25 +101,46 @@ pub(super) fn candidates(
     let model = &setup.model;
     let h = setup.height;
     let fk = ForwardKinematics::new(setup.skeleton, pose);
-    let sampled: Vec<ChainSamples> = chains
+    // A chain is sampled when a stroke first needs it: most chains are too long or too
+    // short for every stroke, or attach too far from it.
+    let sample = |c: &[usize]| {
+        let samples = arclength_samples(&model.chain_polyline(c, &fk)).0;
+        let reach = (1..SAMPLES)
+            .map(|i| (samples[i] - samples[i - 1]).norm())
+            .sum();
+        let from_pivot = FromPivot::new(|i| samples[i], samples[0]);
+        ChainSamples {
+            samples,
+            bends: c.len().saturating_sub(1),
+            reach,
+            from_pivot,
+        }
+    };
+    let mut sampled: Vec<Option<ChainSamples>> = (0..chains.len()).map(|_| None).collect();
+    let lengths: Vec<f64> = chains
         .iter()
-        .map(|c| {
-            let samples = arclength_samples(&model.chain_polyline(c, &fk)).0;
-            let reach = (1..SAMPLES)
-                .map(|i| (samples[i] - samples[i - 1]).norm())
-                .sum();
-            ChainSamples {
-                samples,
-                length: c.iter().map(|&b| model.bones[b].length).sum(),
-                bends: c.len().saturating_sub(1),
-                reach,
-            }
-        })
+        .map(|c| c.iter().map(|&b| model.bones[b].length).sum())
         .collect();
     let translating: Vec<bool> = chains
         .iter()
         .map(|c| c.iter().any(|&b| model.bones[b].tip_translates))
         .collect();
+    // Chains attach at few joints: each stroke is seen from each of them once, both ways
+    // round. `pivot_slot[c]` numbers chain `c`'s joint among them; a slot holds the stroke
+    // it was last filled for.
+    let mut slot_of_joint: Vec<Option<usize>> = vec![None; setup.skeleton.len()];
+    let mut pivots = 0;
+    let pivot_slot: Vec<usize> = chains
+        .iter()
+        .map(|c| {
+            *slot_of_joint[model.bones[c[0]].joint].get_or_insert_with(|| {
+                pivots += 1;
+                pivots - 1
+            })
+        })
+        .collect();
+    let mut stroke_from_pivot: Vec<[Option<(usize, FromPivot)>; 2]> =
+        (0..pivots).map(|_| [None, None]).collect();
     let mut out: Candidates = vec![Vec::new(); setup.strokes.count()];
     for (s, list) in out.iter_mut().enumerate() {
         // Comparing every stroke with every chain is the solver's widest loop: an interrupt
@@ -112,22 +154,46 @@ pub(super) fn candidates(
             if !setup.stroke_may_cover(s, chain) {
                 continue;
             }
-            let sampled_chain = &sampled[c];
-            let (samples, length) = (&sampled_chain.samples, &sampled_chain.length);
+            let length = &lengths[c];
             let mismatch = (stroke_length - length) / length.max(1e-12);
             if mismatch.abs() > MAX_LENGTH_MISMATCH && !translating[c] {
                 continue;
             }
             let length_cost = LENGTH_WEIGHT * mismatch.min(MAX_LENGTH_MISMATCH).powi(2);
+            // Where the chain attaches: its first sample, known before it is sampled.
+            let pivot = fk.position(model.bones[chain[0]].joint);
             for reversed in [false, true] {
-                let near = || distance_cost(stroke, samples, reversed, h);
                 // A pinned stroke keeps its chains however far they are.
                 let pinned = setup.strokes.allowed_bones[s].is_some();
+                // By shape, a chain attached too far is no candidate (as `shape_cost` finds).
+                if by_shape
+                    && !pinned
+                    && (oriented(stroke, 0, reversed) - pivot).norm() > MAX_ATTACH_DISTANCE * h
+                {
+                    continue;
+                }
+                let sampled_chain = sampled[c].get_or_insert_with(|| sample(chain));
+                let samples = &sampled_chain.samples;
+                let near = || distance_cost(stroke, samples, reversed, h);
                 // Where the chain attaches, then its distance now or its shape turned,
                 // whichever is less (the distance is measured only for chains that attach
                 // near the stroke, most do not).
                 let cost = if by_shape {
-                    match shape_cost(stroke, sampled_chain, reversed, h) {
+                    // The shape and distance terms are never negative: a chain whose
+                    // attachment alone costs more than the ceiling is dropped unmeasured.
+                    if !pinned
+                        && ATTACH_WEIGHT * attach_cost(stroke, samples, reversed, h) + length_cost
+                            > ceiling
+                    {
+                        continue;
+                    }
+                    let slot = &mut stroke_from_pivot[pivot_slot[c]][reversed as usize];
+                    if slot.as_ref().is_none_or(|(filled_for, _)| *filled_for != s) {
+                        let seen = FromPivot::new(|i| oriented(stroke, i, reversed), pivot);
+                        *slot = Some((s, seen));
+                    }
+                    let from_stroke = &slot.as_ref().expect("filled above").1;
+                    match shape_cost(stroke, sampled_chain, from_stroke, reversed, h) {
                         Some((attach, turned)) => Some(ATTACH_WEIGHT * attach + turned.min(near())),
                         None => pinned.then(near),
                     }
@@ -149,10 +215,18 @@ pub(super) fn candidates(
                 }
             }
         }
-        list.sort_by(|a, b| a.cost.total_cmp(&b.cost));
-        if setup.options.global_assignment {
+        // Candidates were pushed by chain, then direction: ordering ties by them keeps the
+        // order of a stable sort by cost, so only the kept ones need sorting.
+        let order = |a: &Candidate, b: &Candidate| {
+            (a.cost.total_cmp(&b.cost))
+                .then(a.chain.cmp(&b.chain))
+                .then(a.reversed.cmp(&b.reversed))
+        };
+        if setup.options.global_assignment && list.len() > KEPT_CANDIDATES {
+            list.select_nth_unstable_by(KEPT_CANDIDATES - 1, order);
             list.truncate(KEPT_CANDIDATES);
         }
+        list.sort_unstable_by(order);
     }
     out
 }
@@ -165,14 +239,25 @@ fn oriented(stroke: &[Point3], i: usize, reversed: bool) -> Point3 {
 /// Mean squared distance at the current pose (heights), the attached end weighed more:
 /// where a chain attaches moves little with the pose, its tip moves most.
 pub(super) fn distance_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) -> f64 {
-    let weight = |i: usize| 1.2 - i as f64 / (SAMPLES - 1) as f64;
-    let (mut sum, mut weights) = (0.0, 0.0);
-    for i in 0..SAMPLES {
-        sum += weight(i) * (oriented(stroke, i, reversed) - chain[i]).norm_squared();
-        weights += weight(i);
+    let (weights, weight_sum) = &DISTANCE_WEIGHTS;
+    let mut sum = 0.0;
+    for (i, weight) in weights.iter().enumerate() {
+        sum += weight * (oriented(stroke, i, reversed) - chain[i]).norm_squared();
     }
-    sum / weights / (h * h)
+    sum / weight_sum / (h * h)
 }
+
+/// The weight of each sample in [`distance_cost`], from the attached end (1.2) to the tip
+/// (0.2), and their sum (added in order).
+const DISTANCE_WEIGHTS: ([f64; SAMPLES], f64) = {
+    let (mut weights, mut sum, mut i) = ([0.0; SAMPLES], 0.0, 0);
+    while i < SAMPLES {
+        weights[i] = 1.2 - i as f64 / (SAMPLES - 1) as f64;
+        sum += weights[i];
+        i += 1;
+    }
+    (weights, sum)
+};
 
 /// Where the chain attaches (the mean squared distance of the stroke's and the chain's
 /// proximal samples) and how well its shape fits once turned about its attachment, in
@@ -181,9 +266,12 @@ pub(super) fn distance_cost(stroke: &[Point3], chain: &[Point3], reversed: bool,
 /// samples' distances from the attachment (what no turn changes; a lower bound of the
 /// residual after the best turn), and the turn is the angle between the chain's and the
 /// stroke's mean directions from it, priced by how far the chain's tip travels.
+///
+/// `from_stroke` is the stroke (oriented) seen from where the chain attaches.
 fn shape_cost(
     stroke: &[Point3],
     sampled: &ChainSamples,
+    from_stroke: &FromPivot,
     reversed: bool,
     h: f64,
 ) -> Option<(f64, f64)> {
@@ -192,20 +280,13 @@ fn shape_cost(
     if (oriented(stroke, 0, reversed) - pivot).norm() > MAX_ATTACH_DISTANCE * h {
         return None;
     }
-    let attach = (0..PROXIMAL_SAMPLES)
-        .map(|i| (oriented(stroke, i, reversed) - chain[i]).norm_squared())
-        .sum::<f64>()
-        / PROXIMAL_SAMPLES as f64
-        / (h * h);
-    let (mut residual, mut along_chain, mut along_stroke) =
-        (0.0, Vector3::zeros(), Vector3::zeros());
+    let attach = attach_cost(stroke, chain, reversed, h);
+    let from_chain = &sampled.from_pivot;
+    let mut residual = 0.0;
     for i in 0..SAMPLES {
-        let a: Vector3 = chain[i] - pivot;
-        let b: Vector3 = oriented(stroke, i, reversed) - pivot;
-        residual += (a.norm() - b.norm()).powi(2);
-        along_chain += a;
-        along_stroke += b;
+        residual += (from_chain.distances[i] - from_stroke.distances[i]).powi(2);
     }
+    let (along_chain, along_stroke) = (from_chain.along, from_stroke.along);
     let mut residual = residual / SAMPLES as f64 / (h * h);
     let bends = sampled.bends;
     if bends >= RIGID_CHAIN_BONES {
@@ -215,9 +296,7 @@ fn shape_cost(
         let too_far = (0..SAMPLES)
             .map(|i| {
                 let reach = sampled.reach * i as f64 / (SAMPLES - 1) as f64;
-                ((oriented(stroke, i, reversed) - pivot).norm() - reach)
-                    .max(0.0)
-                    .powi(2)
+                (from_stroke.distances[i] - reach).max(0.0).powi(2)
             })
             .sum::<f64>()
             / SAMPLES as f64
@@ -226,8 +305,18 @@ fn shape_cost(
         residual = too_far + rigid_share * (residual - too_far).max(0.0);
     }
     let angle = along_chain.angle(&along_stroke);
-    let reach = (chain[SAMPLES - 1] - pivot).norm() / h;
+    let reach = from_chain.distances[SAMPLES - 1] / h;
     Some((attach, residual + TURN_WEIGHT * (angle * reach).powi(2)))
+}
+
+/// Where the chain attaches: the mean squared distance of the stroke's and the chain's
+/// proximal samples, in squared heights.
+fn attach_cost(stroke: &[Point3], chain: &[Point3], reversed: bool, h: f64) -> f64 {
+    (0..PROXIMAL_SAMPLES)
+        .map(|i| (oriented(stroke, i, reversed) - chain[i]).norm_squared())
+        .sum::<f64>()
+        / PROXIMAL_SAMPLES as f64
+        / (h * h)
 }
 
 /// Each stroke's chain: strokes with a `fixed` chain keep it, `excluded` strokes stay set
@@ -350,9 +439,26 @@ fn least_cost(
     for &s in &free {
         members.entry(find(&mut group, s)).or_default().push(s);
     }
+    // Per bone, the strokes' candidates that cover it: (depth of the stroke in its group's
+    // search, the candidates as bits). A group's bones are its own.
+    let mut covered_by: Vec<Vec<(usize, u64)>> = vec![Vec::new(); bones];
     for mut strokes in members.into_values() {
         // The strokes with the fewest choices are decided first (the search narrows fastest).
         strokes.sort_by_key(|&s| candidates[s].len());
+        let depths = strokes.len();
+        // Candidates a fixed chain's bones already rule out, per depth; then the rest.
+        let mut blocked = vec![0u64; (depths + 1) * depths];
+        for (depth, &s) in strokes.iter().enumerate() {
+            for (k, c) in candidates[s].iter().enumerate() {
+                for &b in &chains[c.chain] {
+                    blocked[depth] |= u64::from(used[b]) << k;
+                    match covered_by[b].last_mut() {
+                        Some((d, bits)) if *d == depth => *bits |= 1 << k,
+                        _ => covered_by[b].push((depth, 1 << k)),
+                    }
+                }
+            }
+        }
         let start: Vec<Option<usize>> = strokes
             .iter()
             .map(|&s| {
@@ -374,9 +480,10 @@ fn least_cost(
         let mut search = GroupSearch {
             chains,
             candidates,
+            covered_by: &covered_by,
             strokes: &strokes,
             least_after,
-            used: &mut used,
+            blocked,
             picks: vec![None; strokes.len()],
             best: start.clone(),
             best_cost: group_cost(candidates, &strokes, &start),
@@ -401,14 +508,21 @@ fn group_cost(candidates: &Candidates, strokes: &[usize], picks: &[Option<usize>
         .sum()
 }
 
+// A stroke's candidates are bits of a `u64` in the search.
+const _: () = assert!(KEPT_CANDIDATES <= 64);
+
 /// Depth-first branch and bound over one group's strokes.
 struct GroupSearch<'a> {
     chains: &'a [Vec<usize>],
     candidates: &'a Candidates,
+    /// Per bone, the candidates that cover it: (depth, candidates as bits).
+    covered_by: &'a [Vec<(usize, u64)>],
     strokes: &'a [usize],
     /// The least the strokes from each depth on can cost (a bound, conflicts ignored).
     least_after: Vec<f64>,
-    used: &'a mut Vec<bool>,
+    /// Per depth of the search, then per depth: the candidates (as bits) whose bones the
+    /// chains picked above it, or fixed ones, already cover.
+    blocked: Vec<u64>,
     picks: Vec<Option<usize>>,
     best: Vec<Option<usize>>,
     best_cost: f64,
@@ -429,24 +543,52 @@ impl GroupSearch<'_> {
             return;
         };
         let rest = self.least_after[depth + 1];
-        for k in 0..self.candidates[s].len() {
-            let c = self.candidates[s][k];
-            // Candidates come best first: once one cannot beat the best, none after can.
-            if cost + c.cost + rest >= self.best_cost - 1e-12 {
+        let depths = self.strokes.len();
+        let list = &self.candidates[s];
+        // The candidates no chain picked above (or fixed) rules out, in order.
+        let all = u64::MAX.checked_shr(64 - list.len() as u32).unwrap_or(0);
+        let mut open = !self.blocked[depth * depths + depth] & all;
+        // Costs come sorted (NaN last): the last that is a number.
+        let last_number = list.iter().rposition(|c| !c.cost.is_nan());
+        while open != 0 {
+            let k = open.trailing_zeros() as usize;
+            open &= open - 1;
+            let c = list[k];
+            // Candidates come best first: once one cannot beat the best, none after can
+            // (those ruled out are skipped unjudged: one of them that cannot beat the best
+            // means this one cannot either, unless this one's cost is no number).
+            let judged = match last_number {
+                Some(j) if c.cost.is_nan() && j < k => list[j],
+                _ => c,
+            };
+            if cost + judged.cost + rest >= self.best_cost - 1e-12 {
                 break;
             }
-            let chain = &self.chains[c.chain];
-            if chain.iter().any(|&b| self.used[b]) {
-                continue;
-            }
-            chain.iter().for_each(|&b| self.used[b] = true);
+            let chains = self.chains;
+            self.block_below(depth, &chains[c.chain]);
             self.picks[depth] = Some(k);
             self.descend(depth + 1, cost + c.cost);
-            chain.iter().for_each(|&b| self.used[b] = false);
         }
         self.picks[depth] = None;
         if cost + STRAY_COST + rest < self.best_cost - 1e-12 {
+            self.block_below(depth, &[]);
             self.descend(depth + 1, cost + STRAY_COST);
+        }
+    }
+
+    /// The candidates blocked below `depth` once `chain` is picked there: those blocked at
+    /// `depth`, and those covering a bone of `chain`.
+    fn block_below(&mut self, depth: usize, chain: &[usize]) {
+        let depths = self.strokes.len();
+        let (above, below) = self.blocked.split_at_mut((depth + 1) * depths);
+        below[depth + 1..depths]
+            .copy_from_slice(&above[depth * depths + depth + 1..][..depths - depth - 1]);
+        for &b in chain {
+            for &(d, bits) in &self.covered_by[b] {
+                if d > depth {
+                    below[d] |= bits;
+                }
+            }
         }
     }
 }

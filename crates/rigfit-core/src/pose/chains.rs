@@ -47,10 +47,26 @@ pub(super) fn cumulative(line: &[Point3]) -> Vec<f64> {
 /// [`SAMPLES`] points evenly spaced in arclength along a polyline, and its length.
 pub(super) fn arclength_samples(line: &[Point3]) -> (Vec<Point3>, f64) {
     let cum = cumulative(line);
+    let total = *cum.last().unwrap_or(&0.0);
+    if total <= 0.0 || line.len() < 2 {
+        return (vec![line[0]; SAMPLES], total);
+    }
+    // What [`at`] finds for each sample, its segment found by one sweep along the line:
+    // the targets only grow.
+    let mut below = 0;
     let samples = (0..SAMPLES)
-        .map(|i| at(line, &cum, i as f64 / (SAMPLES - 1) as f64))
+        .map(|i| {
+            let target = (i as f64 / (SAMPLES - 1) as f64).clamp(0.0, 1.0) * total;
+            while below < cum.len() && cum[below] < target {
+                below += 1;
+            }
+            let seg = below.clamp(1, line.len() - 1) - 1;
+            let (a, b) = (cum[seg], cum[seg + 1]);
+            let t = if b > a { (target - a) / (b - a) } else { 0.0 };
+            line[seg] + (line[seg + 1] - line[seg]) * t
+        })
         .collect();
-    (samples, *cum.last().unwrap_or(&0.0))
+    (samples, total)
 }
 
 /// The arclength of stroke `s` (after resampling).

@@ -17,6 +17,9 @@ pub(super) const FULL_FIT_STEPS: usize = 20;
 /// A fit stops when a step lowers the cost by less than this fraction.
 const CONVERGED_DECREASE: f64 = 1e-3;
 
+/// Per model point, the point it is pulled to and the pull's weight.
+type Targets = Vec<Option<(Point3, f64)>>;
+
 /// The pose being fitted, and the Levenberg-Marquardt state.
 pub(super) struct Fitter {
     pub pose: Pose,
@@ -33,6 +36,9 @@ pub(super) struct Fitter {
     normal: Option<SkeletonNormalEquations>,
     fk: Option<(Pose, ForwardKinematics)>,
     trial: Option<(Pose, ForwardKinematics)>,
+    /// The assignment of the last arclength fit and its targets (a trial assignment is
+    /// fitted twice when it is accepted; a solve has one setup).
+    arclength: Option<(Vec<Assignment>, Targets)>,
 }
 
 impl Fitter {
@@ -46,6 +52,7 @@ impl Fitter {
             normal: None,
             fk: None,
             trial: None,
+            arclength: None,
         }
     }
 
@@ -202,13 +209,20 @@ impl Fitter {
         assignment: &[Assignment],
         steps: usize,
     ) {
-        let targets = chains::arclength_targets(setup, assignment);
+        let (fitted, targets) = match self.arclength.take() {
+            Some((fitted, targets)) if fitted == assignment => (fitted, targets),
+            _ => (
+                assignment.to_vec(),
+                chains::arclength_targets(setup, assignment),
+            ),
+        };
         for _ in 0..steps {
             self.iterations += 1;
             if self.step(setup, layout, &targets) < CONVERGED_DECREASE {
                 break;
             }
         }
+        self.arclength = Some((fitted, targets));
     }
 
     /// Puts joints with no assigned bone at or below them back to their start transform and
