@@ -266,3 +266,47 @@ fn near_segment(p: &Point3, from: &Point3, to: &Point3) -> bool {
     }
     (p - (from + along * t.min(1.0))).norm() < length / 3.0
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::animation::{AnimationChannel, Interpolation};
+    use crate::math::{Trs, Vector3};
+    use crate::skeleton::Joint;
+
+    #[test]
+    fn a_helper_linking_the_skin_translates_as_its_clip_moves_it_an_ik_goal_does_not() {
+        let at = |x: f64, y: f64| Trs::from_translation(Vector3::new(x, y, 0.0));
+        let mut joints = vec![
+            Joint::new("Body", None, at(0.0, 1.0)),
+            Joint::new("Hip", Some(0), at(0.0, 0.0)),
+            Joint::new("Leg", Some(1), at(0.0, -0.5)),
+            Joint::new("Goal", Some(0), at(0.5, 0.0)),
+        ];
+        joints[1].kind = JointKind::Helper;
+        joints[3].kind = JointKind::Helper;
+        let mut skeleton = Skeleton::new(joints).expect("a tree");
+        skeleton.set_default_dofs();
+        let pose = skeleton.rest_pose();
+        let drop = |joint: usize, rest: [f64; 4]| AnimationChannel {
+            joint,
+            target: ChannelTarget::Translation,
+            interpolation: Interpolation::Linear,
+            times: vec![0.0, 1.0],
+            values: vec![rest, [rest[0], rest[1] - 0.5, 0.0, 0.0]],
+        };
+        let mut rig = Rig {
+            skeleton,
+            pose,
+            meshes: Vec::new(),
+            animations: vec![Animation {
+                name: "sit".into(),
+                channels: vec![drop(1, [0.0; 4]), drop(3, [0.5, 0.0, 0.0, 0.0])],
+                frame_time: None,
+            }],
+        };
+        assert_eq!(rig.free_translating_joints(), 1);
+        assert_eq!(rig.skeleton.joint(1).dof, JointDof::Free, "the hip");
+        assert_ne!(rig.skeleton.joint(3).dof, JointDof::Free, "the IK goal");
+    }
+}

@@ -74,3 +74,31 @@ fn markers_without_a_pinned_stroke_are_refused() {
         "{error}"
     );
 }
+
+#[test]
+fn a_noisy_stroke_places_its_marker_better_than_its_last_point_does() {
+    let skeleton = markers();
+    let start = skeleton.rest_pose();
+    let goal = Point3::new(0.3, 0.9, 0.2);
+    // A jitter of 0.03 (3% of the height) across the stroke, its end point off by the most.
+    let mut stroke = line(goal, Some("a"));
+    for (i, p) in stroke.points.iter_mut().enumerate() {
+        let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+        *p += Vector3::new(0.03 * sign, -0.03 * sign, 0.0);
+    }
+    let end_miss = (stroke.points.last().expect("points") - goal).norm();
+    let problem = PoseProblem {
+        skeleton: &skeleton,
+        start: &start,
+        strokes: &[stroke],
+        movable: None,
+        height: 1.0,
+    };
+    let result = solve_pose(&problem, &PoseOptions::default()).expect("poses");
+    let j = skeleton.find("a").expect("marker");
+    let miss = (skeleton.joint_positions(&result.pose)[j] - goal).norm();
+    assert!(
+        miss < 0.5 * end_miss,
+        "missed by {miss}, the stroke's last point by {end_miss}"
+    );
+}
