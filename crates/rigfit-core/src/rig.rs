@@ -81,9 +81,8 @@ impl Rig {
 
     /// Gives translation degrees of freedom ([`JointDof::Free`]) to every joint of the
     /// character (skin joints and the helpers linking them) whose animations move its
-    /// translation (markers, IK goals, BVH
-    /// position channels that change): posing and tracking must move them as the file
-    /// does. Returns how many joints were freed.
+    /// translation (markers, hip nodes, BVH position channels that change): posing and
+    /// tracking must move them as the file does. Returns how many joints were freed.
     pub fn free_translating_joints(&mut self) -> usize {
         let size = self.height().max(1e-12);
         let mut translates = vec![false; self.skeleton.len()];
