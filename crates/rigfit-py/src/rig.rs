@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use numpy::PyArray2;
 use pyo3::prelude::*;
+use rigfit_core::joint_model::with_clip_ranges;
 use rigfit_core::surface::cases::skinned_surface;
 use rigfit_core::{Pose, Rig};
 use rigfit_formats::FormatError;
@@ -284,6 +285,9 @@ pub fn load_rig(
     let file = py
         .detach(|| read_rig(&path, &options))
         .map_err(|e| error(e.to_string()))?;
-    let skeleton = Py::new(py, PySkeleton::from_core(file.rig.skeleton.clone()))?;
+    // As `rigfit pose` does: the ranges the rig's clips show choose among the ways strokes
+    // can be explained (they only score; nothing else reads them).
+    let posing = with_clip_ranges(&file.rig.skeleton, &file.rig.animations);
+    let skeleton = Py::new(py, PySkeleton::from_core(posing))?;
     Ok(PyRig { file, skeleton })
 }
