@@ -1,7 +1,7 @@
 //! Posing speed: a 55-joint rig (BCN_Epileptic: 54 skin joints and its root node) with 10
-//! strokes of 100 points, the corpus's largest rig (mrfixit, 75 joints) with 30 strokes of
-//! 100 points on every chain, and the built-in humanoid with its 6 limb strokes. The goal
-//! is live feedback while a stroke is drawn.
+//! strokes of 100 points, the corpus's 75-joint mrfixit with 30 strokes of 100 points on
+//! every chain, its largest rig (the 82-joint fruit fly) with 17, and the built-in humanoid
+//! with its 6 limb strokes. The goal is live feedback while a stroke is drawn.
 //!
 //! `cargo bench -p rigfit-cli --bench pose`
 
@@ -12,7 +12,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use rand::SeedableRng;
 use rigfit_core::joint_model::with_clip_ranges;
 use rigfit_core::pose::beautify::resample;
-use rigfit_core::pose::cases::{CaseOptions, make_case};
+use rigfit_core::pose::cases::{CaseOptions, FarPoseOptions, far_pose, make_case};
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
 use rigfit_core::{Pose, Rig, Stroke};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
@@ -41,6 +41,51 @@ fn draw_strokes(
         s.points.truncate(points);
     }
     case
+}
+
+/// A rig of the posing corpus with `joints` joints, or `None` (with a note) when the corpus
+/// is not on this machine.
+fn corpus_rig(file: &str, joints: usize) -> Option<Rig> {
+    let corpus = std::env::var("RIGFIT_CORPUS").unwrap_or_else(|_| {
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../target/test-data/corpus").to_string()
+    });
+    match read_rig(
+        &std::path::Path::new(&corpus).join(file),
+        &RigOptions::default(),
+    ) {
+        Ok(read) => {
+            assert_eq!(read.rig.skeleton.len(), joints, "{file}");
+            Some(read.rig)
+        }
+        Err(e) => {
+            eprintln!("skipping {file}: {e} (run scripts/fetch-data.sh)");
+            None
+        }
+    }
+}
+
+/// Benches posing `rig` from `strokes` strokes of 100 points drawn on every chain of
+/// `truth`, with the skeleton `rigfit pose` uses.
+fn bench_corpus_rig(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    rig: &Rig,
+    truth: &Pose,
+    strokes: usize,
+) {
+    let drawn = draw_strokes(rig, truth, strokes, 100, 0.005);
+    assert_eq!(drawn.len(), strokes, "{name}");
+    let skeleton = with_clip_ranges(&rig.skeleton, &rig.animations);
+    let problem = PoseProblem {
+        skeleton: &skeleton,
+        start: &rig.pose,
+        strokes: &drawn,
+        movable: None,
+        height: rig.height(),
+    };
+    group.bench_function(name, |b| {
+        b.iter(|| solve_pose(&problem, &PoseOptions::default()).expect("solves"))
+    });
 }
 
 fn bench(c: &mut Criterion) {
@@ -85,31 +130,37 @@ fn bench(c: &mut Criterion) {
     group.bench_function("humanoid_26_joints_6_strokes_x100", |b| {
         b.iter(|| solve_pose(&problem, &PoseOptions::default()).expect("solves"))
     });
-    // The corpus's largest rig (scripts/fetch-data.sh; RIGFIT_CORPUS or target/test-data).
-    let corpus = std::env::var("RIGFIT_CORPUS").unwrap_or_else(|_| {
-        concat!(env!("CARGO_MANIFEST_DIR"), "/../../target/test-data/corpus").to_string()
-    });
-    let path = std::path::Path::new(&corpus).join("assimp/mrfixit.glb");
-    match read_rig(&path, &RigOptions::default()) {
-        Ok(file) => {
-            let rig = &file.rig;
-            assert_eq!(rig.skeleton.len(), 75);
-            let truth = rig.animations[0].sample(&rig.pose, 1.0);
-            let strokes = draw_strokes(rig, &truth, 30, 100, 0.005);
-            assert_eq!(strokes.len(), 30);
-            let skeleton = with_clip_ranges(&rig.skeleton, &rig.animations);
-            let problem = PoseProblem {
-                skeleton: &skeleton,
-                start: &rig.pose,
-                strokes: &strokes,
-                movable: None,
-                height: rig.height(),
-            };
-            group.bench_function("mrfixit_75_joints_30_strokes_x100", |b| {
-                b.iter(|| solve_pose(&problem, &PoseOptions::default()).expect("solves"))
-            });
-        }
-        Err(e) => eprintln!("skipping the 75-joint case: {e} (run scripts/fetch-data.sh)"),
+    // The corpus's big rigs (scripts/fetch-data.sh; RIGFIT_CORPUS or target/test-data): the
+    // 75-joint Blender character with its own clip, and the largest, the 82-joint MuJoCo
+    // fruit fly (no clip: a far pose).
+    if let Some(rig) = corpus_rig("assimp/mrfixit.glb", 75) {
+        let truth = rig.animations[0].sample(&rig.pose, 1.0);
+        bench_corpus_rig(
+            &mut group,
+            "mrfixit_75_joints_30_strokes_x100",
+            &rig,
+            &truth,
+            30,
+        );
+    }
+    if let Some(rig) = corpus_rig("dm_control/fruitfly.glb", 82) {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let options = FarPoseOptions::default();
+        let truth = far_pose(
+            &rig.skeleton,
+            &rig.pose,
+            &[],
+            rig.height(),
+            &options,
+            &mut rng,
+        );
+        bench_corpus_rig(
+            &mut group,
+            "fruitfly_82_joints_17_strokes_x100",
+            &rig,
+            &truth,
+            17,
+        );
     }
     group.finish();
 }
