@@ -64,17 +64,20 @@ fn corpus_rig(file: &str, joints: usize) -> Option<Rig> {
     }
 }
 
-/// Benches posing `rig` from `strokes` strokes of 100 points drawn on every chain of
-/// `truth`, with the skeleton `rigfit pose` uses.
-fn bench_corpus_rig(
+/// Benches posing `rig` from `strokes` strokes of 100 points drawn on the chains of
+/// `truth` at least `min_chain_length` of the height long, with the skeleton `rigfit pose`
+/// uses; with `paper_too`, the published method as well (`NAME_paper`).
+fn bench_rig(
     group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
     name: &str,
     rig: &Rig,
     truth: &Pose,
-    strokes: usize,
+    (strokes, min_chain_length): (usize, f64),
+    paper_too: bool,
 ) {
-    let drawn = draw_strokes(rig, truth, strokes, 100, 0.005);
+    let drawn = draw_strokes(rig, truth, strokes, 100, min_chain_length);
     assert_eq!(drawn.len(), strokes, "{name}");
+    assert!(drawn.iter().all(|s| s.points.len() == 100), "{name}");
     let skeleton = with_clip_ranges(&rig.skeleton, &rig.animations);
     let problem = PoseProblem {
         skeleton: &skeleton,
@@ -86,6 +89,11 @@ fn bench_corpus_rig(
     group.bench_function(name, |b| {
         b.iter(|| solve_pose(&problem, &PoseOptions::default()).expect("solves"))
     });
+    if paper_too {
+        group.bench_function(format!("{name}_paper"), |b| {
+            b.iter(|| solve_pose(&problem, &PoseOptions::paper()).expect("solves"))
+        });
+    }
 }
 
 fn bench(c: &mut Criterion) {
@@ -96,52 +104,22 @@ fn bench(c: &mut Criterion) {
     .expect("rig");
     let rig = &file.rig;
     assert_eq!(rig.skeleton.len(), 55);
-    let truth = rig.animations[0].sample(&rig.pose, 1.5);
-    let strokes = draw_strokes(rig, &truth, 10, 100, 0.03);
-    assert_eq!(strokes.len(), 10);
-    assert!(strokes.iter().all(|s| s.points.len() == 100));
-    let skeleton = with_clip_ranges(&rig.skeleton, &rig.animations);
-    let problem = PoseProblem {
-        skeleton: &skeleton,
-        start: &rig.pose,
-        strokes: &strokes,
-        movable: None,
-        height: rig.height(),
-    };
     let mut group = c.benchmark_group("pose");
     group.sample_size(20);
-    group.bench_function("bcn_55_joints_10_strokes_x100", |b| {
-        b.iter(|| solve_pose(&problem, &PoseOptions::default()).expect("solves"))
-    });
-    group.bench_function("bcn_55_joints_10_strokes_x100_paper", |b| {
-        b.iter(|| solve_pose(&problem, &PoseOptions::paper()).expect("solves"))
-    });
+    let truth = rig.animations[0].sample(&rig.pose, 1.5);
+    let name = "bcn_55_joints_10_strokes_x100";
+    bench_rig(&mut group, name, rig, &truth, (10, 0.03), true);
     let humanoid = rigfit_core::humanoid::humanoid();
     let truth = humanoid.animations[0].sample(&humanoid.pose, 1.0);
-    let strokes = draw_strokes(&humanoid, &truth, 6, 100, 0.03);
-    let skeleton = with_clip_ranges(&humanoid.skeleton, &humanoid.animations);
-    let problem = PoseProblem {
-        skeleton: &skeleton,
-        start: &humanoid.pose,
-        strokes: &strokes,
-        movable: None,
-        height: humanoid.height(),
-    };
-    group.bench_function("humanoid_26_joints_6_strokes_x100", |b| {
-        b.iter(|| solve_pose(&problem, &PoseOptions::default()).expect("solves"))
-    });
+    let name = "humanoid_26_joints_6_strokes_x100";
+    bench_rig(&mut group, name, &humanoid, &truth, (6, 0.03), false);
     // The corpus's big rigs (scripts/fetch-data.sh; RIGFIT_CORPUS or target/test-data): the
     // 75-joint Blender character with its own clip, and the largest, the 82-joint MuJoCo
     // fruit fly (no clip: a far pose).
     if let Some(rig) = corpus_rig("assimp/mrfixit.glb", 75) {
         let truth = rig.animations[0].sample(&rig.pose, 1.0);
-        bench_corpus_rig(
-            &mut group,
-            "mrfixit_75_joints_30_strokes_x100",
-            &rig,
-            &truth,
-            30,
-        );
+        let name = "mrfixit_75_joints_30_strokes_x100";
+        bench_rig(&mut group, name, &rig, &truth, (30, 0.005), false);
     }
     if let Some(rig) = corpus_rig("dm_control/fruitfly.glb", 82) {
         let mut rng = rand::rngs::StdRng::seed_from_u64(5);
@@ -154,13 +132,8 @@ fn bench(c: &mut Criterion) {
             &options,
             &mut rng,
         );
-        bench_corpus_rig(
-            &mut group,
-            "fruitfly_82_joints_17_strokes_x100",
-            &rig,
-            &truth,
-            17,
-        );
+        let name = "fruitfly_82_joints_17_strokes_x100";
+        bench_rig(&mut group, name, &rig, &truth, (17, 0.005), false);
     }
     group.finish();
 }
