@@ -68,7 +68,7 @@ struct ChainSamples {
 }
 
 /// Arclength samples seen from a pivot: the distance of each from it, and the sum of the
-/// vectors from it to them (what [`shape_cost`] compares between a chain and a stroke).
+/// vectors from it to them (what [`turned_shape_cost`] compares between a chain and a stroke).
 struct FromPivot {
     distances: [f64; SAMPLES],
     along: Vector3,
@@ -165,11 +165,11 @@ pub(super) fn candidates(
             for reversed in [false, true] {
                 // A pinned stroke keeps its chains however far they are.
                 let pinned = setup.strokes.allowed_bones[s].is_some();
-                // By shape, a chain attached too far is no candidate (as `shape_cost` finds).
-                if by_shape
-                    && !pinned
-                    && (oriented(stroke, 0, reversed) - pivot).norm() > MAX_ATTACH_DISTANCE * h
-                {
+                // By shape, a chain attached too far from where the stroke starts is no
+                // candidate (a pinned stroke's is judged by its distance alone).
+                let attached_far =
+                    (oriented(stroke, 0, reversed) - pivot).norm() > MAX_ATTACH_DISTANCE * h;
+                if by_shape && attached_far && !pinned {
                     continue;
                 }
                 let sampled_chain = sampled[c].get_or_insert_with(|| sample(chain));
@@ -178,13 +178,11 @@ pub(super) fn candidates(
                 // Where the chain attaches, then its distance now or its shape turned,
                 // whichever is less (the distance is measured only for chains that attach
                 // near the stroke, most do not).
-                let cost = if by_shape {
+                let mut cost = if by_shape && !attached_far {
                     // The shape and distance terms are never negative: a chain whose
                     // attachment alone costs more than the ceiling is dropped unmeasured.
-                    if !pinned
-                        && ATTACH_WEIGHT * attach_cost(stroke, samples, reversed, h) + length_cost
-                            > ceiling
-                    {
+                    let attach = ATTACH_WEIGHT * attach_cost(stroke, samples, reversed, h);
+                    if !pinned && attach + length_cost > ceiling {
                         continue;
                     }
                     let slot = &mut stroke_from_pivot[pivot_slot[c]][reversed as usize];
@@ -193,25 +191,20 @@ pub(super) fn candidates(
                         *slot = Some((s, seen));
                     }
                     let from_stroke = &slot.as_ref().expect("filled above").1;
-                    match shape_cost(stroke, sampled_chain, from_stroke, reversed, h) {
-                        Some((attach, turned)) => Some(ATTACH_WEIGHT * attach + turned.min(near())),
-                        None => pinned.then(near),
-                    }
+                    attach + turned_shape_cost(sampled_chain, from_stroke, h).min(near())
                 } else {
-                    Some(near())
-                };
-                if let Some(mut cost) = cost.map(|c| c + length_cost) {
-                    if pinned {
-                        // Cheaper than a stray, in the same order.
-                        cost = 0.5 * STRAY_COST * cost / (cost + STRAY_COST);
-                    }
-                    if !by_shape || pinned || cost <= ceiling {
-                        list.push(Candidate {
-                            cost,
-                            chain: c,
-                            reversed,
-                        });
-                    }
+                    near()
+                } + length_cost;
+                if pinned {
+                    // Cheaper than a stray, in the same order.
+                    cost = 0.5 * STRAY_COST * cost / (cost + STRAY_COST);
+                }
+                if !by_shape || pinned || cost <= ceiling {
+                    list.push(Candidate {
+                        cost,
+                        chain: c,
+                        reversed,
+                    });
                 }
             }
         }
@@ -259,28 +252,14 @@ const DISTANCE_WEIGHTS: ([f64; SAMPLES], f64) = {
     (weights, sum)
 };
 
-/// Where the chain attaches (the mean squared distance of the stroke's and the chain's
-/// proximal samples) and how well its shape fits once turned about its attachment, in
-/// squared heights; `None` when the chain attaches too far from where the stroke starts.
-/// The turned fit is measured without solving for the rotation: the residual compares the
-/// samples' distances from the attachment (what no turn changes; a lower bound of the
-/// residual after the best turn), and the turn is the angle between the chain's and the
-/// stroke's mean directions from it, priced by how far the chain's tip travels.
+/// How well a chain's shape fits a stroke once turned about where it attaches, in squared
+/// heights. The turned fit is measured without solving for the rotation: the residual
+/// compares the samples' distances from the attachment (what no turn changes; a lower bound
+/// of the residual after the best turn), and the turn is the angle between the chain's and
+/// the stroke's mean directions from it, priced by how far the chain's tip travels.
 ///
 /// `from_stroke` is the stroke (oriented) seen from where the chain attaches.
-fn shape_cost(
-    stroke: &[Point3],
-    sampled: &ChainSamples,
-    from_stroke: &FromPivot,
-    reversed: bool,
-    h: f64,
-) -> Option<(f64, f64)> {
-    let chain = &sampled.samples;
-    let pivot = chain[0];
-    if (oriented(stroke, 0, reversed) - pivot).norm() > MAX_ATTACH_DISTANCE * h {
-        return None;
-    }
-    let attach = attach_cost(stroke, chain, reversed, h);
+fn turned_shape_cost(sampled: &ChainSamples, from_stroke: &FromPivot, h: f64) -> f64 {
     let from_chain = &sampled.from_pivot;
     let mut residual = 0.0;
     for i in 0..SAMPLES {
@@ -306,7 +285,7 @@ fn shape_cost(
     }
     let angle = along_chain.angle(&along_stroke);
     let reach = from_chain.distances[SAMPLES - 1] / h;
-    Some((attach, residual + TURN_WEIGHT * (angle * reach).powi(2)))
+    residual + TURN_WEIGHT * (angle * reach).powi(2)
 }
 
 /// Where the chain attaches: the mean squared distance of the stroke's and the chain's

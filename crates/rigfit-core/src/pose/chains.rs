@@ -23,10 +23,13 @@ pub(super) fn at(line: &[Point3], cum: &[f64], u: f64) -> Point3 {
         return line[0];
     }
     let target = u.clamp(0.0, 1.0) * total;
-    let seg = cum
-        .partition_point(|&c| c < target)
-        .clamp(1, line.len() - 1)
-        - 1;
+    on_segment(line, cum, cum.partition_point(|&c| c < target), target)
+}
+
+/// The point at arclength `target` of a polyline (of at least two points) with cumulative
+/// lengths `cum`, given how many cumulative lengths lie below `target`.
+fn on_segment(line: &[Point3], cum: &[f64], below: usize, target: f64) -> Point3 {
+    let seg = below.clamp(1, line.len() - 1) - 1;
     let (a, b) = (cum[seg], cum[seg + 1]);
     let t = if b > a { (target - a) / (b - a) } else { 0.0 };
     line[seg] + (line[seg + 1] - line[seg]) * t
@@ -51,8 +54,8 @@ pub(super) fn arclength_samples(line: &[Point3]) -> (Vec<Point3>, f64) {
     if total <= 0.0 || line.len() < 2 {
         return (vec![line[0]; SAMPLES], total);
     }
-    // What [`at`] finds for each sample, its segment found by one sweep along the line:
-    // the targets only grow.
+    // What [`at`] finds for each sample, the count below it found by one sweep along the
+    // line: the targets only grow.
     let mut below = 0;
     let samples = (0..SAMPLES)
         .map(|i| {
@@ -60,10 +63,7 @@ pub(super) fn arclength_samples(line: &[Point3]) -> (Vec<Point3>, f64) {
             while below < cum.len() && cum[below] < target {
                 below += 1;
             }
-            let seg = below.clamp(1, line.len() - 1) - 1;
-            let (a, b) = (cum[seg], cum[seg + 1]);
-            let t = if b > a { (target - a) / (b - a) } else { 0.0 };
-            line[seg] + (line[seg + 1] - line[seg]) * t
+            on_segment(line, &cum, below, target)
         })
         .collect();
     (samples, total)
@@ -136,12 +136,10 @@ fn fitted_line(stroke: &[Point3], cum: &[f64], span: (f64, f64)) -> (Point3, Poi
     let n = LINE_FIT_SAMPLES;
     let t_mean = 0.5;
     let (mut p_mean, mut covariance, mut variance) = (Vector3::zeros(), Vector3::zeros(), 0.0);
-    let samples: Vec<(f64, Point3)> = (0..n)
-        .map(|i| {
-            let t = i as f64 / (n - 1) as f64;
-            (t, at(stroke, cum, span.0 + t * (span.1 - span.0)))
-        })
-        .collect();
+    let samples: [(f64, Point3); LINE_FIT_SAMPLES] = std::array::from_fn(|i| {
+        let t = i as f64 / (n - 1) as f64;
+        (t, at(stroke, cum, span.0 + t * (span.1 - span.0)))
+    });
     for (_, p) in &samples {
         p_mean += p.coords / n as f64;
     }

@@ -100,6 +100,17 @@ impl Solver<'_> {
         )
     }
 
+    /// Which bones the strokes of `assignment` cover, stroke `except` left out.
+    fn bones_taken(&self, assignment: &[Assignment], except: Option<usize>) -> Vec<bool> {
+        let mut taken = vec![false; self.setup.model.bones.len()];
+        for (t, a) in assignment.iter().enumerate() {
+            if Some(t) != except {
+                a.iter().flat_map(|a| &a.0).for_each(|&b| taken[b] = true);
+            }
+        }
+        taken
+    }
+
     fn chain_length(&self, chain: &[usize]) -> f64 {
         chain
             .iter()
@@ -199,12 +210,8 @@ fn give_strays_free_chains(solver: &mut Solver, fit: &mut ChainFit) -> bool {
         return false;
     }
     let mut ranked = solver.ranked_below(f64::INFINITY);
+    let mut used = solver.bones_taken(&fit.assignment, None);
     for e in set_aside {
-        let mut used = vec![false; solver.setup.model.bones.len()];
-        fit.assignment
-            .iter()
-            .flatten()
-            .for_each(|(c, _)| c.iter().for_each(|&b| used[b] = true));
         let picks: Vec<_> = ranked[e]
             .iter()
             .filter(|c| solver.chains[c.chain].iter().all(|&b| !used[b]))
@@ -217,6 +224,7 @@ fn give_strays_free_chains(solver: &mut Solver, fit: &mut ChainFit) -> bool {
             if solver.accept_judged_after(trial, fit, FULL_FIT_STEPS) {
                 improved = true;
                 ranked = solver.ranked_below(f64::INFINITY);
+                used = solver.bones_taken(&fit.assignment, None);
                 break;
             }
         }
@@ -282,12 +290,7 @@ fn move_to_free_chains(solver: &mut Solver, fit: &mut ChainFit) -> bool {
         let Some((current, _)) = fit.assignment[s].clone() else {
             continue;
         };
-        let mut used = vec![false; solver.setup.model.bones.len()];
-        for (t, a) in fit.assignment.iter().enumerate() {
-            if t != s {
-                a.iter().flat_map(|a| &a.0).for_each(|&b| used[b] = true);
-            }
-        }
+        let used = solver.bones_taken(&fit.assignment, Some(s));
         let lc = solver.chain_length(&current);
         let drawn = stroke_length(&solver.setup, s);
         let mut options: Vec<&Vec<usize>> = solver
