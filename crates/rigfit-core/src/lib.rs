@@ -13,6 +13,7 @@ pub mod interrupt;
 pub mod joint_model;
 pub mod kinematics;
 pub mod math;
+pub mod mirror;
 pub mod pose;
 pub mod rig;
 pub mod skeleton;

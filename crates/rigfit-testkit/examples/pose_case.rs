@@ -20,6 +20,7 @@ fn run() -> Result<(), String> {
     let mut scenario = Scenario::EveryChain;
     let mut index = 0usize;
     let mut out = std::path::PathBuf::from("pose_case.png");
+    let mut detail = false;
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
         let value = it.next().ok_or_else(|| format!("{flag} needs a value"))?;
@@ -35,6 +36,7 @@ fn run() -> Result<(), String> {
                     .map_err(|_| format!("--case: '{value}' is not a count"))?
             }
             "--out" => out = value.into(),
+            "--detail" => detail = value == "yes",
             other => return Err(format!("unknown flag {other}")),
         }
     }
@@ -87,6 +89,34 @@ fn run() -> Result<(), String> {
             name(drawn),
             name(matched)
         );
+    }
+    if detail {
+        // Per joint, how far truth and result turn from the start and lie outside limits.
+        let solver_skeleton = rig.solver_skeleton();
+        for j in 0..skeleton.len() {
+            let joint = solver_skeleton.joint(j);
+            let turn = |p: &rigfit_core::Pose| {
+                (rig.start.local[j].rotation.inverse() * p.local[j].rotation).angle()
+            };
+            let excess = |p: &rigfit_core::Pose| {
+                joint.limits.as_ref().map_or(0.0, |l| {
+                    let relative =
+                        (joint.rest.rotation.inverse() * p.local[j].rotation).scaled_axis();
+                    rigfit_core::joint_model::limit_excess(&joint.dof, l, &relative).norm()
+                })
+            };
+            let (tt, rt) = (turn(&generated.truth), turn(&result.pose));
+            if tt > 1e-3 || rt > 1e-3 {
+                println!(
+                    "  {:<24} turn truth {:6.1} result {:6.1}  excess truth {:6.1} result {:6.1}",
+                    joint.name,
+                    tt.to_degrees(),
+                    rt.to_degrees(),
+                    excess(&generated.truth).to_degrees(),
+                    excess(&result.pose).to_degrees()
+                );
+            }
+        }
     }
     let joint_colors = chain_colors(skeleton);
     let colors = stroke_colors(&result.stroke_bones, &joint_colors);

@@ -17,12 +17,13 @@ use crate::math::{Point3, Vector3};
 use crate::skeleton::{Pose, Skeleton};
 use crate::strokes::Stroke;
 
+pub use crate::mirror::mirror_pairs;
 pub use coverage::{
     Coverage, EVERY_CHAIN_MIN_LENGTH, FEW_LIMBS, chain_deforms, chain_length, deforming_joints,
     limb_chains,
 };
 pub use drawing::{desktop_view, flatten_stroke};
-pub use targets::{FarPoseOptions, clip_pose, far_pose, limb_roots, mirror_pairs, mirror_pose};
+pub use targets::{FarPoseOptions, clip_pose, far_pose, limb_roots, mirror_pose};
 
 /// How to draw a case.
 #[derive(Clone, Debug)]

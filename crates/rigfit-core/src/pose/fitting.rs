@@ -7,6 +7,7 @@
 use super::chains::{self, Assignment};
 use super::setup::Setup;
 use crate::engine::{NormalSink, SkeletonNormalEquations, SubtreeMoments};
+use crate::joint_model::limit_excess;
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::Point3;
 use crate::skeleton::{JointDof, Pose};
@@ -27,6 +28,8 @@ pub(super) struct Fitter {
     pub iterations: usize,
     /// The weight of `Phi(p)` in force (lowered for the final polish).
     pub prior_weight: f64,
+    /// The weight of the joints' excess over their limits (zero: limits are not fitted).
+    pub limit_weight: f64,
     /// The damping, adapted from step to step.
     lambda: f64,
     /// Buffers reused from step to step: the model points' subtree moments, the normal
@@ -47,6 +50,7 @@ impl Fitter {
             pose,
             iterations: 0,
             prior_weight,
+            limit_weight: 0.0,
             lambda: 1e-3,
             moments: SubtreeMoments::new(),
             normal: None,
@@ -98,8 +102,27 @@ impl Fitter {
             Some((_, ne)) => ne.add_scalar(r, w, col, d),
             None => cost += w * r * r,
         };
+        let limit_weight = self.limit_weight;
         for j in 0..skeleton.len() {
             let Some(o) = layout.offset(j) else { continue };
+            let joint = skeleton.joint(j);
+            if let Some(limits) = joint.limits.as_ref().filter(|_| limit_weight > 0.0) {
+                // The rotation's excess over the joint's limits (relative to rest), per axis.
+                let relative =
+                    (joint.rest.rotation.inverse() * pose.local[j].rotation).scaled_axis();
+                let excess = limit_excess(&layout.dof(j), limits, &relative);
+                let rotation = if matches!(layout.dof(j), JointDof::Free) {
+                    o + 3
+                } else {
+                    o
+                };
+                match layout.dof(j) {
+                    JointDof::Ball | JointDof::Free => (0..3)
+                        .for_each(|a| scalar(&mut ne, excess[a], limit_weight, rotation + a, 1.0)),
+                    JointDof::Hinge { .. } => scalar(&mut ne, excess[0], limit_weight, o, 1.0),
+                    _ => {}
+                }
+            }
             // Phi(p): rotation vectors away from the start pose, per joint and axis.
             let start = &setup.start.local[j];
             let delta = (start.rotation.inverse() * pose.local[j].rotation).scaled_axis();
@@ -223,6 +246,22 @@ impl Fitter {
             }
         }
         self.arclength = Some((fitted, targets));
+    }
+
+    /// [`Fitter::fit_arclength`] with the joints' excess over their limits fitted too, at
+    /// `weight`: where the strokes leave a joint free (a twist), it turns back within its
+    /// limits; where they hold it outside, the fit shows what keeping to them costs.
+    pub fn fit_within_limits(
+        &mut self,
+        setup: &Setup,
+        layout: &DofLayout,
+        assignment: &[Assignment],
+        steps: usize,
+        weight: f64,
+    ) {
+        self.limit_weight = weight;
+        self.fit_arclength(setup, layout, assignment, steps);
+        self.limit_weight = 0.0;
     }
 
     /// Puts joints with no assigned bone at or below them back to their start transform and

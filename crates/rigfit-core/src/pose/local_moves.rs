@@ -74,6 +74,7 @@ impl Solver<'_> {
         if self.score(&trial, &layout) < fit.score {
             self.fitter
                 .fit_arclength(&self.setup, &layout, &trial, FULL_FIT_STEPS);
+            self.limit_tail(&layout, &trial);
             fit.score = self.score(&trial, &layout);
             fit.assignment = trial;
             fit.layout = layout;

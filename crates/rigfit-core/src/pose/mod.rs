@@ -19,6 +19,7 @@ pub mod cases;
 mod chains;
 mod fitting;
 mod local_moves;
+mod mirror_image;
 mod multi_start;
 mod options;
 mod setup;

@@ -8,6 +8,7 @@ use super::assignment::{STRAY_COST, assign, candidates};
 use super::chains::{Assignment, stroke_length, stroke_residuals};
 use super::fitting::{FULL_FIT_STEPS, Fitter};
 use super::local_moves::improve;
+use super::mirror_image::bone_mirrors;
 use super::multi_start::rigid_placements;
 use super::setup::Setup;
 use super::{PoseError, PoseResult};
@@ -40,6 +41,13 @@ const HYPOTHESIS_ROOT_WEIGHT: f64 = 1e-6;
 /// least this long against its bones together (measured on the tuning half: 0.3 against 0,
 /// 0.15 and 0.45).
 const PLACED_BODY_SHARE: f64 = 0.3;
+
+/// Levenberg-Marquardt steps within the joints' limits at the end of every full fit, and the
+/// weight of the squared excess (radians) there (measured on the tuning half: 3 steps at
+/// 1e-3 against 2 and 5 steps, and 3e-4, 3e-3, 1e-2, 0.1; fitting the limits from the start
+/// blocks limbs that must swing far, see BENCHMARKS.md).
+const LIMIT_TAIL_STEPS: usize = 3;
+const LIMIT_TAIL_WEIGHT: f64 = 1e-3;
 
 /// Weight of a stroke's squared length mismatch with its chain (heights) in the score.
 const LENGTH_SCORE_WEIGHT: f64 = 0.05;
@@ -79,6 +87,8 @@ pub(super) struct Solver<'a> {
     pub trials_left: usize,
     /// Strokes are matched to chains by shape (or by distance at the current pose).
     pub by_shape: bool,
+    /// Each bone's mirror image, when the skeleton names its left and right joints.
+    pub bone_mirrors: Option<Vec<Option<usize>>>,
 }
 
 impl<'a> Solver<'a> {
@@ -89,7 +99,9 @@ impl<'a> Solver<'a> {
         } else {
             Vec::new()
         };
+        let bone_mirrors = bone_mirrors(setup.skeleton, &setup.model);
         Self {
+            bone_mirrors,
             setup,
             fitter,
             chains,
@@ -142,7 +154,7 @@ impl<'a> Solver<'a> {
             &[false]
         };
         let mut fits: Vec<ChainFit> = Vec::new();
-        for start in starts {
+        for start in &starts {
             for &by_shape in modes {
                 if self.setup.interrupt.is_set() {
                     break;
@@ -152,7 +164,7 @@ impl<'a> Solver<'a> {
                 if opts.anneal_before_chains {
                     anneal(&self.setup, &mut self.fitter, &all, &sigmas, None);
                 }
-                fits.push(self.chain_step());
+                fits.push(self.chain_step(None));
             }
         }
         fits.sort_by(|a, b| a.score.total_cmp(&b.score));
@@ -172,6 +184,7 @@ impl<'a> Solver<'a> {
         }
         // Only when interrupted before the first hypothesis was fitted.
         let best = best.ok_or(PoseError::Interrupted)?;
+        let best = self.try_mirror_image(best, &starts);
         self.fitter.pose = best.pose;
         let allowed_bones: Vec<Option<Vec<bool>>> = best
             .assignment
@@ -253,15 +266,21 @@ impl<'a> Solver<'a> {
         drawn / body.max(f64::MIN_POSITIVE)
     }
 
-    /// The chain step from the fitter's pose: assign chains, fit by arclength, set strays
-    /// aside (judged after the fit: a stroke its chain cannot follow), re-assign until
-    /// stable.
-    fn chain_step(&mut self) -> ChainFit {
+    /// The chain step from the fitter's pose: assign chains (or start from `seed`), fit by
+    /// arclength, set strays aside (judged after the fit: a stroke its chain cannot
+    /// follow), re-assign until stable.
+    pub fn chain_step(&mut self, seed: Option<Vec<Assignment>>) -> ChainFit {
         let strokes = self.setup.strokes.count();
         let stray = self.setup.options.stray_distance;
         let initial = self.fitter.pose.clone();
-        let mut excluded = vec![false; strokes];
-        let mut assignment = self.assign_now(&excluded, None);
+        let (mut excluded, mut assignment) = match seed {
+            Some(seed) => (seed.iter().map(Option::is_none).collect(), seed),
+            None => {
+                let excluded = vec![false; strokes];
+                let assignment = self.assign_now(&excluded, None);
+                (excluded, assignment)
+            }
+        };
         let mut layout = self.setup.layout(&self.setup.movable);
         let mut refitted = false;
         for _round in 0..CHAIN_STEP_ROUNDS {
@@ -297,6 +316,7 @@ impl<'a> Solver<'a> {
                 None => break,
             }
         }
+        self.limit_tail(&layout, &assignment);
         let score = self.score(&assignment, &layout);
         ChainFit {
             score,
@@ -305,6 +325,18 @@ impl<'a> Solver<'a> {
             layout,
             by_shape: self.by_shape,
         }
+    }
+
+    /// The end of every full fit: a few steps within the joints' limits, so that a
+    /// hypothesis is judged by a pose the rig can take wherever its strokes leave room.
+    pub fn limit_tail(&mut self, layout: &DofLayout, assignment: &[Assignment]) {
+        self.fitter.fit_within_limits(
+            &self.setup,
+            layout,
+            assignment,
+            LIMIT_TAIL_STEPS,
+            LIMIT_TAIL_WEIGHT,
+        );
     }
 
     /// The assignment of every stroke not `excluded` from the candidates at the current
@@ -332,6 +364,14 @@ impl<'a> Solver<'a> {
     /// stroke residual (strays counted at the stray distance, more for longer strokes) plus
     /// a small preference for bending less.
     pub fn score(&self, assignment: &[Assignment], layout: &DofLayout) -> f64 {
+        let (data, preference) = self.score_parts(assignment, layout);
+        data + preference
+    }
+
+    /// [`Solver::score`] in its two parts: how well the strokes are explained, and the
+    /// preferences that choose among explanations (bending less, within the limits, the
+    /// body where it stood).
+    pub fn score_parts(&self, assignment: &[Assignment], layout: &DofLayout) -> (f64, f64) {
         let setup = &self.setup;
         let stray = setup.options.stray_distance;
         let strokes = assignment.len();
@@ -399,8 +439,9 @@ impl<'a> Solver<'a> {
             (start.rotation.inverse() * now.rotation).angle().powi(2)
                 + ((now.translation - start.translation) / setup.height).norm_squared()
         });
-        data + HYPOTHESIS_BEND_WEIGHT * bend
+        let preference = HYPOTHESIS_BEND_WEIGHT * bend
             + HYPOTHESIS_ROOT_WEIGHT * turned
-            + HYPOTHESIS_LIMIT_WEIGHT * outside
+            + HYPOTHESIS_LIMIT_WEIGHT * outside;
+        (data, preference)
     }
 }

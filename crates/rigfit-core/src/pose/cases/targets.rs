@@ -8,6 +8,7 @@ use super::coverage::{chain_length, limb_chains, outer_limbs};
 use crate::animation::{Animation, ChannelTarget, Interpolation};
 use crate::joint_model::limit_excess;
 use crate::math::{Quat, Vector3};
+use crate::mirror::mirror_pairs;
 use crate::skeleton::{Joint, JointDof, JointKind, Pose, Skeleton};
 
 /// A limb's first bone counts as a short link (a clavicle, a hip joint) and the limb turns
@@ -149,54 +150,6 @@ pub fn mirror_pose(
     }
     turn_heading(skeleton, &mut pose, options, rng);
     Some(pose)
-}
-
-/// Left-right pairs of joints by name (`Left`/`Right`, `L`/`R` or `l`/`r` as a word or
-/// before a capital, as in `LHipJoint`, `B_Hip_L`, `Arm.L`, `lShldr`, and a final `L`
-/// after a lower-case letter, as in `ArmL`): `(left, right)` for each left joint whose
-/// right name exists.
-pub fn mirror_pairs(skeleton: &Skeleton) -> Vec<(usize, usize)> {
-    (0..skeleton.len())
-        .filter_map(|left| {
-            right_names(&skeleton.joint(left).name)
-                .iter()
-                .find_map(|name| skeleton.find(name))
-                .filter(|&right| right != left)
-                .map(|right| (left, right))
-        })
-        .collect()
-}
-
-/// The names a right-side counterpart of `name` may have.
-pub(super) fn right_names(name: &str) -> Vec<String> {
-    let mut names = Vec::new();
-    for (left, right) in [("Left", "Right"), ("left", "right"), ("LEFT", "RIGHT")] {
-        for (at, _) in name.match_indices(left) {
-            names.push(format!(
-                "{}{right}{}",
-                &name[..at],
-                &name[at + left.len()..]
-            ));
-        }
-    }
-    let bytes = name.as_bytes();
-    let separator = |b: u8| matches!(b, b'_' | b'.' | b'-' | b':' | b' ' | b'|');
-    for (at, &b) in bytes.iter().enumerate() {
-        if b != b'L' && b != b'l' {
-            continue;
-        }
-        let word_start = at == 0 || separator(bytes[at - 1]);
-        let word_end = bytes
-            .get(at + 1)
-            .is_none_or(|&next| separator(next) || next.is_ascii_uppercase());
-        let final_capital =
-            b == b'L' && at + 1 == bytes.len() && at > 0 && bytes[at - 1].is_ascii_lowercase();
-        if (word_start && word_end) || final_capital {
-            let right = if b == b'L' { "R" } else { "r" };
-            names.push(format!("{}{right}{}", &name[..at], &name[at + 1..]));
-        }
-    }
-    names
 }
 
 /// The world rotation of every joint (products of local rotations; scale ignored).
