@@ -11,7 +11,7 @@
 //! from where it is now still find its stroke; the price of turning keeps a leg raised
 //! upright from taking the spine's stroke when the spine's own fits as well.
 
-use super::chains::{Assignment, SAMPLES, arclength_samples};
+use super::chains::{Assignment, SAMPLES};
 use super::setup::Setup;
 use crate::kinematics::ForwardKinematics;
 use crate::math::{Point3, Vector3};
@@ -58,7 +58,7 @@ pub(super) type Candidates = Vec<Vec<Candidate>>;
 
 /// A chain at `pose` sampled by arclength, with where it can bend and how far it reaches.
 struct ChainSamples {
-    samples: Vec<Point3>,
+    samples: [Point3; SAMPLES],
     /// The joints inside the chain, where it can bend.
     bends: usize,
     /// The arclength of the samples: how far along them the chain reaches.
@@ -104,7 +104,7 @@ pub(super) fn candidates(
     // A chain is sampled when a stroke first needs it: most chains are too long or too
     // short for every stroke, or attach too far from it.
     let sample = |c: &[usize]| {
-        let samples = arclength_samples(&model.chain_polyline(c, &fk)).0;
+        let samples = model.chain_samples(c, &fk).0;
         let reach = (1..SAMPLES)
             .map(|i| (samples[i] - samples[i - 1]).norm())
             .sum();
@@ -191,7 +191,7 @@ pub(super) fn candidates(
                         *slot = Some((s, seen));
                     }
                     let from_stroke = &slot.as_ref().expect("filled above").1;
-                    attach + turned_shape_cost(sampled_chain, from_stroke, h).min(near())
+                    attach + turned_shape_cost(sampled_chain, from_stroke, h, near())
                 } else {
                     near()
                 } + length_cost;
@@ -258,8 +258,10 @@ const DISTANCE_WEIGHTS: ([f64; SAMPLES], f64) = {
 /// of the residual after the best turn), and the turn is the angle between the chain's and
 /// the stroke's mean directions from it, priced by how far the chain's tip travels.
 ///
-/// `from_stroke` is the stroke (oriented) seen from where the chain attaches.
-fn turned_shape_cost(sampled: &ChainSamples, from_stroke: &FromPivot, h: f64) -> f64 {
+/// `from_stroke` is the stroke (oriented) seen from where the chain attaches. Returns the
+/// least of that and `near` (the cost at the current pose), without pricing the turn when
+/// the residual alone already reaches `near`.
+fn turned_shape_cost(sampled: &ChainSamples, from_stroke: &FromPivot, h: f64, near: f64) -> f64 {
     let from_chain = &sampled.from_pivot;
     let mut residual = 0.0;
     for i in 0..SAMPLES {
@@ -283,9 +285,12 @@ fn turned_shape_cost(sampled: &ChainSamples, from_stroke: &FromPivot, h: f64) ->
         let rigid_share = RIGID_CHAIN_BONES as f64 / (1.0 + bends as f64);
         residual = too_far + rigid_share * (residual - too_far).max(0.0);
     }
+    if residual >= near {
+        return near;
+    }
     let angle = along_chain.angle(&along_stroke);
     let reach = from_chain.distances[SAMPLES - 1] / h;
-    residual + TURN_WEIGHT * (angle * reach).powi(2)
+    (residual + TURN_WEIGHT * (angle * reach).powi(2)).min(near)
 }
 
 /// Where the chain attaches: the mean squared distance of the stroke's and the chain's

@@ -206,16 +206,22 @@ impl BoneModel {
         out
     }
 
-    /// The polyline of a chain in world space: the first bone's joint, then every bone's tip.
-    pub fn chain_polyline(&self, chain: &[usize], fk: &ForwardKinematics) -> Vec<Point3> {
-        let mut line = Vec::with_capacity(chain.len() + 1);
-        if let Some(&first) = chain.first() {
-            line.push(fk.position(self.bones[first].joint));
-        }
-        for &b in chain {
-            line.push(fk.position(self.bones[b].child));
-        }
-        line
+    /// [`SAMPLES`](super::chains::SAMPLES) points evenly spaced in arclength along `chain`
+    /// at `fk` (from the joint that turns its first bone through each bone's tip), and its
+    /// length.
+    pub(super) fn chain_samples(
+        &self,
+        chain: &[usize],
+        fk: &ForwardKinematics,
+    ) -> ([Point3; super::chains::SAMPLES], f64) {
+        let joints = || {
+            let first = chain.first().map(|&b| self.bones[b].joint);
+            first
+                .into_iter()
+                .chain(chain.iter().map(|&b| self.bones[b].child))
+                .map(|j| fk.position(j))
+        };
+        super::chains::arclength_samples_along(joints)
     }
 }
 

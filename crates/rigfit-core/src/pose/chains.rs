@@ -48,24 +48,52 @@ pub(super) fn cumulative(line: &[Point3]) -> Vec<f64> {
 }
 
 /// [`SAMPLES`] points evenly spaced in arclength along a polyline, and its length.
-pub(super) fn arclength_samples(line: &[Point3]) -> (Vec<Point3>, f64) {
-    let cum = cumulative(line);
-    let total = *cum.last().unwrap_or(&0.0);
-    if total <= 0.0 || line.len() < 2 {
-        return (vec![line[0]; SAMPLES], total);
+pub(super) fn arclength_samples(line: &[Point3]) -> ([Point3; SAMPLES], f64) {
+    arclength_samples_along(|| line.iter().copied())
+}
+
+/// [`arclength_samples`] along the polyline `points()` walks (twice: its length, then the
+/// samples), without collecting it. The cumulative lengths are summed in the same order as
+/// [`cumulative`]'s, so the samples are those [`at`] finds.
+pub(super) fn arclength_samples_along<I: Iterator<Item = Point3>>(
+    points: impl Fn() -> I,
+) -> ([Point3; SAMPLES], f64) {
+    let mut walk = points();
+    let Some(first) = walk.next() else {
+        panic!("a polyline has at least one point");
+    };
+    let (mut total, mut previous, mut segments) = (0.0, first, 0usize);
+    for p in walk {
+        total += (p - previous).norm();
+        previous = p;
+        segments += 1;
     }
-    // What [`at`] finds for each sample, the count below it found by one sweep along the
-    // line: the targets only grow.
-    let mut below = 0;
-    let samples = (0..SAMPLES)
-        .map(|i| {
-            let target = (i as f64 / (SAMPLES - 1) as f64).clamp(0.0, 1.0) * total;
-            while below < cum.len() && cum[below] < target {
-                below += 1;
-            }
-            on_segment(line, &cum, below, target)
-        })
-        .collect();
+    let mut samples = [first; SAMPLES];
+    if total <= 0.0 || segments == 0 {
+        return (samples, total);
+    }
+    // One sweep: segment `[a, b]` runs from cumulative length `cum_a` to `cum_b`; a target
+    // lies on the first segment whose end is not below it (the last one past the end).
+    let mut walk = points();
+    let mut a = walk.next().unwrap_or(first);
+    let mut b = walk.next().unwrap_or(a);
+    let (mut cum_a, mut cum_b, mut seg) = (0.0, (b - a).norm(), 0usize);
+    for (i, sample) in samples.iter_mut().enumerate() {
+        let target = (i as f64 / (SAMPLES - 1) as f64).clamp(0.0, 1.0) * total;
+        while cum_b < target && seg + 1 < segments {
+            let Some(next) = walk.next() else { break };
+            (a, b) = (b, next);
+            cum_a = cum_b;
+            cum_b += (b - a).norm();
+            seg += 1;
+        }
+        let t = if cum_b > cum_a {
+            (target - cum_a) / (cum_b - cum_a)
+        } else {
+            0.0
+        };
+        *sample = a + (b - a) * t;
+    }
     (samples, total)
 }
 
@@ -92,7 +120,7 @@ fn sample_distance(stroke: &[Point3], chain: &[Point3], reversed: bool) -> f64 {
 /// least with the limb's pose.
 pub(super) fn better_direction(setup: &Setup, pose: &Pose, s: usize, chain: &[usize]) -> bool {
     let fk = ForwardKinematics::new(setup.skeleton, pose);
-    let (line, _) = arclength_samples(&setup.model.chain_polyline(chain, &fk));
+    let (line, _) = setup.model.chain_samples(chain, &fk);
     let stroke = &setup.strokes.by_arclength[s].0;
     let (ahead, back) = (
         sample_distance(stroke, &line, false),
@@ -120,7 +148,7 @@ pub(super) fn stroke_residuals(setup: &Setup, pose: &Pose, assignment: &[Assignm
             let Some((chain, reversed)) = a else {
                 return 0.0;
             };
-            let (line, _) = arclength_samples(&setup.model.chain_polyline(chain, &fk));
+            let (line, _) = setup.model.chain_samples(chain, &fk);
             let stroke = &setup.strokes.by_arclength[s].0;
             sample_distance(stroke, &line, *reversed).sqrt() / setup.height
         })

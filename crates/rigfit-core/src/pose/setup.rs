@@ -7,7 +7,7 @@ use std::ops::Range;
 use super::PoseProblem;
 use super::beautify;
 use super::bones::BoneModel;
-use super::chains::arclength_samples;
+use super::chains::{SAMPLES, arclength_samples};
 use super::options::{
     MAX_POSE_JOINTS, MAX_STROKE_DISTANCE, MAX_STROKE_POINTS, MAX_STROKES, PoseError, PoseOptions,
 };
@@ -28,7 +28,7 @@ pub(super) struct StrokeSamples {
     pub allowed_bones: Vec<Option<Vec<bool>>>,
     /// Per stroke: its samples evenly spaced in arclength (as chains are compared) and its
     /// length, computed once.
-    pub by_arclength: Vec<(Vec<Point3>, f64)>,
+    pub by_arclength: Vec<([Point3; SAMPLES], f64)>,
 }
 
 impl StrokeSamples {
