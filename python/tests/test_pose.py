@@ -106,7 +106,17 @@ def test_joint_order_is_the_callers():
     rot, tr = rig.sample(1.5)
     assert np.allclose(flipped.joint_positions(rot[perm], tr[perm]), sk.joint_positions(rot, tr)[perm])
     strokes, _ = rigfit.draw_strokes(sk, rot, tr, height=rig.height, seed=5)
-    a = rigfit.solve_pose(sk, strokes, rig.rotations, rig.translations, height=rig.height)
+    # The same skeleton built the same way, parents first (a skeleton built from arrays has
+    # no joint limits; the loaded rig's carries its clips' ranges, which the solver uses).
+    same = rigfit.Skeleton(
+        list(sk.names),
+        list(sk.parents),
+        sk.rest_translations,
+        sk.rest_rotations,
+        end_sites=list(sk.end_sites),
+        helpers=list(sk.helpers),
+    )
+    a = rigfit.solve_pose(same, strokes, rig.rotations, rig.translations, height=rig.height)
     b = rigfit.solve_pose(flipped, strokes, rig.rotations[perm], rig.translations[perm], height=rig.height)
     assert np.allclose(a.positions[perm], b.positions, atol=1e-6)
 
