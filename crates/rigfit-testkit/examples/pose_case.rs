@@ -3,10 +3,11 @@
 //!
 //! ```text
 //! cargo run --release -p rigfit-testkit --example pose_case -- \
-//!     --rig ID --scenario NAME --case I [--out FILE.png]
+//!     --rig ID --scenario NAME --case I [--out FILE.png] [--detail yes]
 //! ```
 //! Prints the case's errors and each stroke's matched bones beside the chain it was drawn
-//! along.
+//! along; with `--detail yes`, also each joint's turn from the start and its excess over
+//! its limits (degrees) in the truth and in the answer.
 
 use std::process::ExitCode;
 
@@ -36,7 +37,13 @@ fn run() -> Result<(), String> {
                     .map_err(|_| format!("--case: '{value}' is not a count"))?
             }
             "--out" => out = value.into(),
-            "--detail" => detail = value == "yes",
+            "--detail" => {
+                detail = match value.as_str() {
+                    "yes" => true,
+                    "no" => false,
+                    _ => return Err(format!("--detail: '{value}' is not yes or no")),
+                }
+            }
             other => return Err(format!("unknown flag {other}")),
         }
     }
