@@ -88,3 +88,35 @@ fn limits_never_hold_a_limb_back() {
         "tip {tip}"
     );
 }
+
+#[test]
+fn a_pinned_stroke_stays_on_its_bones_when_its_mirror_image_fits_better() {
+    // The left arm may not turn up, the right may: unpinned, the stroke up goes right (the
+    // test above); pinned to the left arm, it stays there however the mirror image scores.
+    let narrow = JointLimits {
+        min: Vector3::new(-0.2, -0.2, -0.2),
+        max: Vector3::new(0.2, 0.2, 0.2),
+    };
+    let down = JointLimits {
+        min: Vector3::new(-0.2, -0.2, -2.0),
+        max: Vector3::new(0.2, 0.2, 0.2),
+    };
+    let skeleton = two_arms(Some(narrow), Some(down));
+    let stroke = Stroke {
+        points: (0..=40)
+            .map(|i| Point3::new(0.0, i as f64 / 40.0, 0.0))
+            .collect(),
+        bones: Some(vec!["left".into()]),
+    };
+    let start = skeleton.rest_pose();
+    let problem = PoseProblem {
+        skeleton: &skeleton,
+        start: &start,
+        strokes: std::slice::from_ref(&stroke),
+        movable: None,
+        height: 1.0,
+    };
+    let result = solve_pose(&problem, &PoseOptions::default()).expect("poses");
+    let left = skeleton.find("left").expect("left");
+    assert_eq!(result.stroke_bones[0], vec![left]);
+}

@@ -53,21 +53,24 @@ pub(super) fn bone_mirrors(skeleton: &Skeleton, model: &BoneModel) -> Option<Vec
     )
 }
 
-/// `assignment` with every chain replaced by its mirror image (a chain with a bone that has
-/// no mirror keeps its own); `None` when the image would cover a bone twice.
+/// `assignment` with every chain replaced by its mirror image; a chain with a bone that has
+/// no mirror, or whose image its stroke may not cover (`may_cover(stroke, chain)`: a stroke
+/// pinned to bones), keeps its own. `None` when the image would cover a bone twice.
 fn mirrored(
     assignment: &[Assignment],
     mirrors: &[Option<usize>],
     bones: usize,
+    may_cover: impl Fn(usize, &[usize]) -> bool,
 ) -> Option<Vec<Assignment>> {
     let mut taken = vec![false; bones];
     let mut image = Vec::with_capacity(assignment.len());
-    for a in assignment {
+    for (s, a) in assignment.iter().enumerate() {
         let a = a.as_ref().map(|(chain, reversed)| {
             let chain = chain
                 .iter()
                 .map(|&b| mirrors[b])
                 .collect::<Option<Vec<usize>>>()
+                .filter(|image| may_cover(s, image))
                 .unwrap_or_else(|| chain.clone());
             (chain, *reversed)
         });
@@ -97,7 +100,8 @@ impl Solver<'_> {
             return best;
         };
         let bones = self.setup.model.bones.len();
-        let Some(seed) = mirrored(&best.assignment, mirrors, bones) else {
+        let may_cover = |s: usize, chain: &[usize]| self.setup.stroke_may_cover(s, chain);
+        let Some(seed) = mirrored(&best.assignment, mirrors, bones, may_cover) else {
             return best;
         };
         if seed == best.assignment {
@@ -128,5 +132,73 @@ impl Solver<'_> {
             }
             _ => best,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::skeleton::Joint;
+    use crate::{Trs, Vector3};
+
+    /// A hub with a two-bone arm on each side, named left and right.
+    fn two_arms() -> (Skeleton, BoneModel) {
+        let at = |x: f64| Trs::from_translation(Vector3::new(x, 0.0, 0.0));
+        let joints = vec![
+            Joint::new("hub", None, Trs::default()),
+            Joint::new("upper_left", Some(0), at(0.1)),
+            Joint::new("lower_left", Some(1), at(0.5)),
+            Joint::new("hand_left", Some(2), at(0.5)),
+            Joint::new("upper_right", Some(0), at(-0.1)),
+            Joint::new("lower_right", Some(4), at(-0.5)),
+            Joint::new("hand_right", Some(5), at(-0.5)),
+        ];
+        let skeleton = Skeleton::new(joints).expect("valid");
+        let model = BoneModel::new(&skeleton, &skeleton.rest_pose(), 0.05, 1e-6);
+        (skeleton, model)
+    }
+
+    fn bone(model: &BoneModel, joint: usize) -> usize {
+        model
+            .bones
+            .iter()
+            .position(|b| b.joint == joint)
+            .expect("a bone")
+    }
+
+    #[test]
+    fn left_chains_map_to_right_ones_and_pins_keep_theirs() {
+        let (skeleton, model) = two_arms();
+        let mirrors = bone_mirrors(&skeleton, &model).expect("named pairs");
+        let left = vec![bone(&model, 1), bone(&model, 2)];
+        let right = vec![bone(&model, 4), bone(&model, 5)];
+        let assignment = vec![Some((left.clone(), false)), None];
+        let any = |_: usize, _: &[usize]| true;
+        let image = mirrored(&assignment, &mirrors, model.bones.len(), any).expect("an image");
+        assert_eq!(image, vec![Some((right.clone(), false)), None]);
+        // Both arms drawn: they trade places.
+        let both = vec![Some((left.clone(), false)), Some((right.clone(), true))];
+        let image = mirrored(&both, &mirrors, model.bones.len(), any).expect("an image");
+        assert_eq!(
+            image,
+            vec![Some((right.clone(), false)), Some((left.clone(), true))]
+        );
+        // A stroke pinned to the left arm keeps it, and then the other stroke's image would
+        // cover the left arm twice: no image.
+        let pinned = |s: usize, chain: &[usize]| s != 0 || chain == left.as_slice();
+        assert_eq!(mirrored(&both, &mirrors, model.bones.len(), pinned), None);
+    }
+
+    #[test]
+    fn a_skeleton_without_named_sides_has_no_mirror() {
+        let at = |x: f64| Trs::from_translation(Vector3::new(x, 0.0, 0.0));
+        let joints = vec![
+            Joint::new("root", None, Trs::default()),
+            Joint::new("a", Some(0), at(1.0)),
+            Joint::new("b", Some(1), at(1.0)),
+        ];
+        let skeleton = Skeleton::new(joints).expect("valid");
+        let model = BoneModel::new(&skeleton, &skeleton.rest_pose(), 0.05, 1e-6);
+        assert!(bone_mirrors(&skeleton, &model).is_none());
     }
 }
