@@ -101,6 +101,29 @@ impl Solver<'_> {
         )
     }
 
+    /// Every stroke's candidates among the chains no stroke of `assignment` covers a bone
+    /// of, by shape however far they must turn (chain indices into `self.chains`).
+    fn free_chains_ranked(&self, assignment: &[Assignment]) -> Candidates {
+        let used = self.bones_taken(assignment, None);
+        let free: Vec<usize> = (0..self.chains.len())
+            .filter(|&c| self.chains[c].iter().all(|&b| !used[b]))
+            .collect();
+        let chains: Vec<Vec<usize>> = free.iter().map(|&c| self.chains[c].clone()).collect();
+        let none = vec![false; self.setup.strokes.count()];
+        let mut ranked = candidates(
+            &self.setup,
+            &self.fitter.pose,
+            &chains,
+            &none,
+            self.by_shape,
+            f64::INFINITY,
+        );
+        for c in ranked.iter_mut().flatten() {
+            c.chain = free[c.chain];
+        }
+        ranked
+    }
+
     /// Which bones the strokes of `assignment` cover, stroke `except` left out.
     fn bones_taken(&self, assignment: &[Assignment], except: Option<usize>) -> Vec<bool> {
         let mut taken = vec![false; self.setup.model.bones.len()];
@@ -210,22 +233,17 @@ fn give_strays_free_chains(solver: &mut Solver, fit: &mut ChainFit) -> bool {
     if set_aside.is_empty() || set_aside.len() > MAX_STRAY_EXCHANGES {
         return false;
     }
-    let mut ranked = solver.ranked_below(f64::INFINITY);
-    let mut used = solver.bones_taken(&fit.assignment, None);
+    // Only the free chains are ranked: ranked among all, a stroke's best few are the
+    // chains around it, and those are taken.
+    let mut ranked = solver.free_chains_ranked(&fit.assignment);
     for e in set_aside {
-        let picks: Vec<_> = ranked[e]
-            .iter()
-            .filter(|c| solver.chains[c.chain].iter().all(|&b| !used[b]))
-            .take(FREE_CHAINS_TRIED)
-            .copied()
-            .collect();
+        let picks: Vec<_> = ranked[e].iter().take(FREE_CHAINS_TRIED).copied().collect();
         for pick in picks {
             let mut trial = fit.assignment.clone();
             trial[e] = Some((solver.chains[pick.chain].clone(), pick.reversed));
             if solver.accept_judged_after(trial, fit, FULL_FIT_STEPS) {
                 improved = true;
-                ranked = solver.ranked_below(f64::INFINITY);
-                used = solver.bones_taken(&fit.assignment, None);
+                ranked = solver.free_chains_ranked(&fit.assignment);
                 break;
             }
         }
