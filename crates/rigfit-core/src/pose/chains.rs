@@ -23,13 +23,10 @@ pub(super) fn at(line: &[Point3], cum: &[f64], u: f64) -> Point3 {
         return line[0];
     }
     let target = u.clamp(0.0, 1.0) * total;
-    on_segment(line, cum, cum.partition_point(|&c| c < target), target)
-}
-
-/// The point at arclength `target` of a polyline (of at least two points) with cumulative
-/// lengths `cum`, given how many cumulative lengths lie below `target`.
-fn on_segment(line: &[Point3], cum: &[f64], below: usize, target: f64) -> Point3 {
-    let seg = below.clamp(1, line.len() - 1) - 1;
+    let seg = cum
+        .partition_point(|&c| c < target)
+        .clamp(1, line.len() - 1)
+        - 1;
     let (a, b) = (cum[seg], cum[seg + 1]);
     let t = if b > a { (target - a) / (b - a) } else { 0.0 };
     line[seg] + (line[seg + 1] - line[seg]) * t

@@ -110,18 +110,16 @@ impl Fitter {
                 // The rotation's excess over the joint's limits (relative to rest), per axis.
                 let relative =
                     (joint.rest.rotation.inverse() * pose.local[j].rotation).scaled_axis();
-                let excess = limit_excess(&layout.dof(j), limits, &relative);
-                let rotation = if matches!(layout.dof(j), JointDof::Free) {
-                    o + 3
-                } else {
-                    o
+                let dof = layout.dof(j);
+                let excess = limit_excess(&dof, limits, &relative);
+                // A free joint's rotation follows its translation in the layout.
+                let (rotation, axes) = match dof {
+                    JointDof::Ball => (o, 3),
+                    JointDof::Free => (o + 3, 3),
+                    JointDof::Hinge { .. } => (o, 1),
+                    JointDof::Fixed => (o, 0),
                 };
-                match layout.dof(j) {
-                    JointDof::Ball | JointDof::Free => (0..3)
-                        .for_each(|a| scalar(&mut ne, excess[a], limit_weight, rotation + a, 1.0)),
-                    JointDof::Hinge { .. } => scalar(&mut ne, excess[0], limit_weight, o, 1.0),
-                    _ => {}
-                }
+                (0..axes).for_each(|a| scalar(&mut ne, excess[a], limit_weight, rotation + a, 1.0));
             }
             // Phi(p): rotation vectors away from the start pose, per joint and axis.
             let start = &setup.start.local[j];

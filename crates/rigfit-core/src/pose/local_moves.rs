@@ -84,17 +84,19 @@ impl Solver<'_> {
         false
     }
 
+    /// The candidates at the current pose, by shape those costing at most a stray.
     fn ranked_now(&self) -> Candidates {
-        self.ranked_below(STRAY_COST)
+        self.ranked_among(&self.chains, STRAY_COST)
     }
 
-    /// The candidates at the current pose, by shape those costing at most `ceiling`.
-    fn ranked_below(&self, ceiling: f64) -> Candidates {
+    /// Every stroke's candidates among `chains` at the current pose, by shape those costing
+    /// at most `ceiling`.
+    fn ranked_among(&self, chains: &[Vec<usize>], ceiling: f64) -> Candidates {
         let none = vec![false; self.setup.strokes.count()];
         candidates(
             &self.setup,
             &self.fitter.pose,
-            &self.chains,
+            chains,
             &none,
             self.by_shape,
             ceiling,
@@ -109,15 +111,7 @@ impl Solver<'_> {
             .filter(|&c| self.chains[c].iter().all(|&b| !used[b]))
             .collect();
         let chains: Vec<Vec<usize>> = free.iter().map(|&c| self.chains[c].clone()).collect();
-        let none = vec![false; self.setup.strokes.count()];
-        let mut ranked = candidates(
-            &self.setup,
-            &self.fitter.pose,
-            &chains,
-            &none,
-            self.by_shape,
-            f64::INFINITY,
-        );
+        let mut ranked = self.ranked_among(&chains, f64::INFINITY);
         for c in ranked.iter_mut().flatten() {
             c.chain = free[c.chain];
         }

@@ -53,16 +53,16 @@ pub(super) fn bone_mirrors(skeleton: &Skeleton, model: &BoneModel) -> Option<Vec
     )
 }
 
-/// `assignment` with every chain replaced by its mirror image; a chain with a bone that has
+/// `assignment` with every chain replaced by its mirror image (`mirrors`: one entry per
+/// bone, [`bone_mirrors`]); a chain with a bone that has
 /// no mirror, or whose image its stroke may not cover (`may_cover(stroke, chain)`: a stroke
 /// pinned to bones), keeps its own. `None` when the image would cover a bone twice.
 fn mirrored(
     assignment: &[Assignment],
     mirrors: &[Option<usize>],
-    bones: usize,
     may_cover: impl Fn(usize, &[usize]) -> bool,
 ) -> Option<Vec<Assignment>> {
-    let mut taken = vec![false; bones];
+    let mut taken = vec![false; mirrors.len()];
     let mut image = Vec::with_capacity(assignment.len());
     for (s, a) in assignment.iter().enumerate() {
         let a = a.as_ref().map(|(chain, reversed)| {
@@ -86,11 +86,8 @@ fn mirrored(
 
 impl Solver<'_> {
     /// How well `fit`'s pose explains the strokes (the score without its preferences).
-    fn data_score(&mut self, fit: &ChainFit) -> f64 {
-        let saved = std::mem::replace(&mut self.fitter.pose, fit.pose.clone());
-        let (data, _) = self.score_parts(&fit.assignment, &fit.layout);
-        self.fitter.pose = saved;
-        data
+    fn data_score(&self, fit: &ChainFit) -> f64 {
+        self.score_parts(&fit.pose, &fit.assignment, &fit.layout).0
     }
 
     /// `best`, or its mirror image fitted from each of `starts` and improved, whichever
@@ -99,9 +96,8 @@ impl Solver<'_> {
         let Some(mirrors) = &self.bone_mirrors else {
             return best;
         };
-        let bones = self.setup.model.bones.len();
         let may_cover = |s: usize, chain: &[usize]| self.setup.stroke_may_cover(s, chain);
-        let Some(seed) = mirrored(&best.assignment, mirrors, bones, may_cover) else {
+        let Some(seed) = mirrored(&best.assignment, mirrors, may_cover) else {
             return best;
         };
         if seed == best.assignment {
@@ -174,11 +170,11 @@ mod tests {
         let right = vec![bone(&model, 4), bone(&model, 5)];
         let assignment = vec![Some((left.clone(), false)), None];
         let any = |_: usize, _: &[usize]| true;
-        let image = mirrored(&assignment, &mirrors, model.bones.len(), any).expect("an image");
+        let image = mirrored(&assignment, &mirrors, any).expect("an image");
         assert_eq!(image, vec![Some((right.clone(), false)), None]);
         // Both arms drawn: they trade places.
         let both = vec![Some((left.clone(), false)), Some((right.clone(), true))];
-        let image = mirrored(&both, &mirrors, model.bones.len(), any).expect("an image");
+        let image = mirrored(&both, &mirrors, any).expect("an image");
         assert_eq!(
             image,
             vec![Some((right.clone(), false)), Some((left.clone(), true))]
@@ -186,7 +182,7 @@ mod tests {
         // A stroke pinned to the left arm keeps it, and then the other stroke's image would
         // cover the left arm twice: no image.
         let pinned = |s: usize, chain: &[usize]| s != 0 || chain == left.as_slice();
-        assert_eq!(mirrored(&both, &mirrors, model.bones.len(), pinned), None);
+        assert_eq!(mirrored(&both, &mirrors, pinned), None);
     }
 
     #[test]

@@ -364,18 +364,23 @@ impl<'a> Solver<'a> {
     /// stroke residual (strays counted at the stray distance, more for longer strokes) plus
     /// a small preference for bending less.
     pub fn score(&self, assignment: &[Assignment], layout: &DofLayout) -> f64 {
-        let (data, preference) = self.score_parts(assignment, layout);
+        let (data, preference) = self.score_parts(&self.fitter.pose, assignment, layout);
         data + preference
     }
 
-    /// [`Solver::score`] in its two parts: how well the strokes are explained, and the
-    /// preferences that choose among explanations (bending less, within the limits, the
-    /// body where it stood).
-    pub fn score_parts(&self, assignment: &[Assignment], layout: &DofLayout) -> (f64, f64) {
+    /// [`Solver::score`] of `pose` in its two parts: how well the strokes are explained,
+    /// and the preferences that choose among explanations (bending less, within the limits,
+    /// the body where it stood).
+    pub fn score_parts(
+        &self,
+        pose: &Pose,
+        assignment: &[Assignment],
+        layout: &DofLayout,
+    ) -> (f64, f64) {
         let setup = &self.setup;
         let stray = setup.options.stray_distance;
         let strokes = assignment.len();
-        let residuals = stroke_residuals(setup, &self.fitter.pose, assignment);
+        let residuals = stroke_residuals(setup, pose, assignment);
         let bones = &setup.model.bones;
         // A stroke set aside costs by its length: a long stroke left unexplained (a neck
         // drawn whole) costs more than a short squiggle. Measured: this against no weight
@@ -416,7 +421,7 @@ impl<'a> Solver<'a> {
             .filter(|&j| Some(j) != setup.root && layout.offset(j).is_some())
         {
             let joint = setup.skeleton.joint(j);
-            let rotation = &self.fitter.pose.local[j].rotation;
+            let rotation = &pose.local[j].rotation;
             let angle = (setup.start.local[j].rotation.inverse() * rotation).angle();
             let factor = if on_chain[j] {
                 1.0
@@ -435,7 +440,7 @@ impl<'a> Solver<'a> {
         // And the one that keeps the body where it stood: a few strokes on limbs say little
         // about where the body is, and what was not drawn keeps its pose.
         let turned = setup.root.map_or(0.0, |r| {
-            let (start, now) = (&setup.start.local[r], &self.fitter.pose.local[r]);
+            let (start, now) = (&setup.start.local[r], &pose.local[r]);
             (start.rotation.inverse() * now.rotation).angle().powi(2)
                 + ((now.translation - start.translation) / setup.height).norm_squared()
         });
