@@ -41,7 +41,7 @@ pub struct SurfaceArgs {
     pub iterations: usize,
     /// Merge each frame's points by cubes of this many point spacings (and by normal
     /// direction) before fitting: fewer points to search, at a small bias on coarse meshes
-    /// (0: every point, the default; at 2 the real assets take about 0.8 of the time).
+    /// (0: every point, the default).
     #[arg(long, default_value_t = SurfaceOptions::default().merge_cell)]
     pub merge: f64,
     /// A frame's first two EM iterations use one point in this many (they take up the

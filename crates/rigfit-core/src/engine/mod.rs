@@ -14,6 +14,7 @@
 
 pub mod articulated;
 pub mod em;
+pub mod fitting_loop;
 pub mod normal_equations;
 pub mod point_grid;
 pub mod skeleton_normal_equations;

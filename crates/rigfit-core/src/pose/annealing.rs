@@ -4,6 +4,9 @@
 
 use super::fitting::Fitter;
 use super::setup::Setup;
+use crate::engine::fitting_loop::{
+    EmModel, Ending, Expectation, Maximisation, Schedule, Stage, Widths, run_em,
+};
 use crate::engine::{MatchMatrix, SoftassignParams, softassign};
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::Point3;
@@ -70,6 +73,62 @@ fn align(setup: &Setup, fitter: &mut Fitter, layout: &DofLayout, matches: &Match
     fitter.step(setup, layout, &targets);
 }
 
+/// The paper's matching and fitting as a model of the engine's fitting loop: the E-step is
+/// softassign at the loop's scale, the M-step aligns to its matches.
+struct MatchAndAlign<'s, 'a, 'f> {
+    setup: &'s Setup<'a>,
+    fitter: &'f mut Fitter,
+    layout: &'s DofLayout,
+    allowed: AllowedBones<'s>,
+    /// Alignment steps per match.
+    aligns: usize,
+    /// With `settling`, the E-step ends the loop once the matches stop changing.
+    settling: bool,
+    matches: MatchMatrix,
+    /// Whether the pose moved since the last match (or nothing was matched yet).
+    stale: bool,
+}
+
+impl EmModel for MatchAndAlign<'_, '_, '_> {
+    type Error = std::convert::Infallible;
+
+    fn interrupted(&self) -> bool {
+        self.setup.interrupt.is_set()
+    }
+
+    fn e_step(&mut self, stage: &Stage) -> Result<Expectation, Self::Error> {
+        let next = match_now(self.setup, self.fitter, stage.sigma, self.allowed);
+        let first = stage.iteration == 1;
+        let change = (self.settling && !first).then(|| next.change_from(&self.matches));
+        self.matches = next;
+        self.stale = false;
+        Ok(match change {
+            Some(change) if change < 1e-3 => Expectation::Settled,
+            _ => Expectation::Ready,
+        })
+    }
+
+    fn m_step(&mut self, _stage: &Stage) -> Result<Maximisation, Self::Error> {
+        for _ in 0..self.aligns {
+            align(self.setup, self.fitter, self.layout, &self.matches);
+        }
+        self.fitter.iterations += 1;
+        self.stale = true;
+        Ok(Maximisation::moved(f64::INFINITY))
+    }
+}
+
+/// Runs the fitting loop on the paper's matching; the matches at the final pose.
+fn match_and_align(mut model: MatchAndAlign, schedule: &Schedule) -> MatchMatrix {
+    let Ok(report) = run_em(&mut model, schedule);
+    // Settling ends on a match of the final pose; a pass through every scale or an
+    // interrupt after an alignment matches once more (annealing keeps its last scale's).
+    if model.settling && model.stale && report.ending != Ending::Settled {
+        model.matches = match_now(model.setup, model.fitter, report.sigma, model.allowed);
+    }
+    model.matches
+}
+
 /// One annealing pass: for each scale, match then align.
 pub(super) fn anneal(
     setup: &Setup,
@@ -78,18 +137,23 @@ pub(super) fn anneal(
     sigmas: &[f64],
     allowed: AllowedBones,
 ) -> MatchMatrix {
-    let mut matches = MatchMatrix::default();
-    for &sigma in sigmas {
-        if setup.interrupt.is_set() {
-            break;
-        }
-        matches = match_now(setup, fitter, sigma, allowed);
-        for _ in 0..setup.options.gauss_newton_steps {
-            align(setup, fitter, layout, &matches);
-        }
-        fitter.iterations += 1;
-    }
-    matches
+    let schedule = Schedule {
+        widths: Widths::List(sigmas.to_vec()),
+        rounds: 1,
+        final_rounds: 1,
+        tolerance: None,
+    };
+    let model = MatchAndAlign {
+        setup,
+        fitter,
+        layout,
+        allowed,
+        aligns: setup.options.gauss_newton_steps,
+        settling: false,
+        matches: MatchMatrix::default(),
+        stale: true,
+    };
+    match_and_align(model, &schedule)
 }
 
 /// Iterates at the final scale until the match stops changing.
@@ -100,21 +164,23 @@ pub(super) fn settle(
     sigma: f64,
     allowed: AllowedBones,
 ) -> MatchMatrix {
-    let mut matches = match_now(setup, fitter, sigma, allowed);
-    for _ in 0..setup.options.max_final_iterations {
-        if setup.interrupt.is_set() {
-            break;
-        }
-        align(setup, fitter, layout, &matches);
-        fitter.iterations += 1;
-        let next = match_now(setup, fitter, sigma, allowed);
-        let change = next.change_from(&matches);
-        matches = next;
-        if change < 1e-3 {
-            break;
-        }
-    }
-    matches
+    let schedule = Schedule {
+        widths: Widths::List(vec![sigma]),
+        rounds: 0,
+        final_rounds: setup.options.max_final_iterations,
+        tolerance: None,
+    };
+    let model = MatchAndAlign {
+        setup,
+        fitter,
+        layout,
+        allowed,
+        aligns: 1,
+        settling: true,
+        matches: MatchMatrix::default(),
+        stale: true,
+    };
+    match_and_align(model, &schedule)
 }
 
 /// Eq. (1) at the fitter's pose: `sum omega |y - v|^2 - zeta sum omega`.

@@ -11,6 +11,7 @@
 pub mod bounds;
 pub mod cases;
 pub mod estep;
+mod frame;
 pub mod model;
 pub mod nearest;
 pub mod patches;
@@ -77,17 +78,14 @@ pub struct SurfaceOptions {
     /// EM iterations per frame at most.
     pub max_iterations: usize,
     /// A frame is done when the vertices moved less than this (root mean square) in an
-    /// iteration's Gauss-Newton step. The default, 0.1% of the diagonal, is about a tenth
-    /// of the error the tracker reaches on the real assets; with the steps over-relaxed,
-    /// 0.09% costs 5% more iterations for 0.01 points of Testwuson's mean error
-    /// (BENCHMARKS.md).
+    /// iteration's Gauss-Newton step (before relaxation); the default is about a tenth of
+    /// the error the tracker reaches on the real assets (BENCHMARKS.md).
     pub tolerance: f64,
     /// Levenberg-Marquardt damping of the Gauss-Newton step.
     pub damping: f64,
     /// Each full iteration moves the patches by this multiple of the Gauss-Newton step
     /// (over-relaxation; 1: the step itself). EM creeps toward its fixed point, each step
-    /// a fraction of the way; a longer step gets there in fewer iterations (on the real
-    /// assets 1.7 takes a fifth fewer iterations to a smaller error, BENCHMARKS.md).
+    /// a fraction of the way; a longer step gets there in fewer iterations (BENCHMARKS.md).
     pub relaxation: f64,
     /// The same for the thinned first iterations (see `coarse_stride`).
     pub coarse_relaxation: f64,
@@ -103,9 +101,9 @@ pub struct SurfaceOptions {
     pub anneal: f64,
     /// Each frame's points are merged by cubes and by normal direction before fitting
     /// ([`Observations::merged`]): cubes of this many times the points' mean spacing (as if
-    /// they all lay on the reference's surface); 0 fits every point (the default). At 2 the
-    /// real assets track as accurately in about 0.8 of the time, but a merged point lies inside a curved surface by a fraction
-    /// of a spacing, which on coarse meshes sampled sparsely costs more than the noise it
+    /// they all lay on the reference's surface); 0 fits every point (the default). Fewer
+    /// points are faster, but a merged point lies inside a curved surface by a fraction of a
+    /// spacing, which on coarse meshes sampled sparsely costs more than the noise it
     /// averages (BENCHMARKS.md).
     pub merge_cell: f64,
     /// A frame's first `coarse_iterations` use one point in `coarse_stride` along the E-step's
@@ -143,7 +141,7 @@ impl Default for SurfaceOptions {
             rigidity: 4.0,
             // With each frame started from the motion continued, the residual motion is
             // smaller than the motion itself: a narrower first kernel needs fewer annealing
-            // steps (BENCHMARKS.md: 30% less time, and more accurate on both assets).
+            // steps (BENCHMARKS.md).
             initial_sigma: 0.025,
             min_sigma: 0.002,
             max_iterations: 12,
@@ -299,136 +297,6 @@ impl SurfaceTracker {
         // from a worker, instead of each waking the pool from outside (a wake-up costs tens
         // of microseconds on a virtual machine, and a frame has about a hundred loops).
         rayon::scope(|_| self.track_in_pool(data))
-    }
-
-    fn track_in_pool(&mut self, data: &Observations) -> Result<FrameFit, SurfaceError> {
-        data.check()?;
-        self.cache.clear();
-        let last = self.pose.clone();
-        if self.options.extrapolate
-            && let Some(previous) = &self.previous
-        {
-            // Constant velocity: apply the last frame's motion of each patch once more.
-            for k in 0..self.model.patch_count() {
-                let turn = last.rotation[k] * previous.rotation[k].transpose();
-                self.pose.rotation[k] = turn * last.rotation[k];
-                self.pose.centre[k] = last.centre[k] + (last.centre[k] - previous.centre[k]);
-            }
-        }
-        let diagonal = self.model.diagonal;
-        let min_sigma = self.options.min_sigma * diagonal;
-        let mut sigma = (self.options.initial_sigma * diagonal).max(min_sigma);
-        let radius = self.options.patches.radius * diagonal;
-        let mut predictions = self.model.predictions(&self.pose);
-        let mut positions = self.model.blended_positions(&predictions);
-        let mut normals = self.model.blended_normals(&predictions);
-        let mut targets = VertexTargets::default();
-        let mut iterations = 0;
-        let merged = (self.options.merge_cell > 0.0).then(|| {
-            // The points' mean spacing were they all on the reference's surface.
-            let area: f64 = self.model.area.iter().sum();
-            let spacing = (area / data.points.len() as f64).sqrt();
-            data.merged(self.options.merge_cell * spacing)
-        });
-        let data = merged.as_ref().unwrap_or(data);
-        let coarse_iterations = self
-            .options
-            .coarse_iterations
-            .min(self.options.max_iterations.saturating_sub(1));
-        // Thinned only while each patch keeps a few points on average.
-        let thinned = self.options.coarse_stride > 1
-            && coarse_iterations > 0
-            && data.points.len() / self.options.coarse_stride >= 8 * self.model.patch_count();
-        for _ in 0..self.options.max_iterations {
-            iterations += 1;
-            let coarse = iterations <= coarse_iterations && thinned;
-            self.cache.set_stride(if coarse {
-                self.options.coarse_stride
-            } else {
-                1
-            });
-            targets = e_step_predicted(
-                &self.model,
-                &predictions,
-                &positions,
-                data,
-                sigma,
-                &self.options.data,
-                &mut self.cache,
-            );
-            let total = targets.total_weight();
-            if total <= 1e-9 {
-                if coarse {
-                    continue;
-                }
-                break;
-            }
-            // Eq. 15: data term (1 / sigma^2 per the Gaussian of eq. 7) plus rigidity.
-            let weights = StepWeights {
-                data: 1.0 / (sigma * sigma),
-                rigidity: self.options.rigidity / (radius * radius),
-                damping: self.options.damping,
-                tangential: self.options.tangential,
-                relaxation: if coarse {
-                    self.options.coarse_relaxation
-                } else {
-                    self.options.relaxation
-                },
-            };
-            gauss_newton_step(
-                &self.model,
-                &self.system,
-                &mut self.pose,
-                &positions,
-                &normals,
-                &targets,
-                &weights,
-            )?;
-            predictions = self.model.predictions(&self.pose);
-            let moved_to = self.model.blended_positions(&predictions);
-            // The M-step for sigma: the weighted mean squared residual per coordinate, falling
-            // no faster than the annealing allows.
-            let sigma_em = (targets.residual(&moved_to) / (3.0 * total)).sqrt();
-            let annealing = sigma_em < sigma * self.options.anneal && sigma > min_sigma;
-            sigma = sigma_em.max(sigma * self.options.anneal).max(min_sigma);
-            // Root mean square displacement of the vertices in this iteration.
-            let moved = (moved_to
-                .iter()
-                .zip(&positions)
-                .map(|(a, b)| (a - b).norm_squared())
-                .sum::<f64>()
-                / positions.len().max(1) as f64)
-                .sqrt();
-            positions = moved_to;
-            normals = self.model.blended_normals(&predictions);
-            // Done when the mesh stopped moving and sigma is no longer held up by the
-            // annealing. The move measured is the Gauss-Newton step's, before relaxation.
-            if moved / weights.relaxation < self.options.tolerance * diagonal
-                && !annealing
-                && !coarse
-            {
-                break;
-            }
-        }
-        if positions.iter().any(|p| p.iter().any(|x| !x.is_finite())) {
-            // Never hand out a broken mesh: the next frame starts again from this one's start.
-            self.pose = last;
-            return Err(SurfaceError::Diverged);
-        }
-        self.previous = Some(last);
-        let total = targets.total_weight();
-        let rms = if total > 0.0 {
-            (targets.weighted_residual / total).sqrt()
-        } else {
-            0.0
-        };
-        Ok(FrameFit {
-            positions,
-            inliers: targets.inliers,
-            rms,
-            iterations,
-            sigma,
-        })
     }
 }
 

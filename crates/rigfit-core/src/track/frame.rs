@@ -5,9 +5,12 @@
 use super::m_step::Pull;
 use super::{FrameFit, TextureSource, TrackError, Tracker};
 use crate::engine::em::{WeightedPoints, candidate_radius, em_step, em_step_with};
+use crate::engine::fitting_loop::{
+    EmModel, Expectation, Maximisation, Schedule, Stage, Widths, continued_trs, run_em,
+};
 use crate::engine::point_grid::voxel_subsample;
 use crate::kinematics::ForwardKinematics;
-use crate::math::{Point3, Quat};
+use crate::math::Point3;
 use crate::skeleton::Pose;
 
 /// A point standing for a voxel's points.
@@ -82,8 +85,7 @@ impl Tracker {
         let sigma_min = (self.options.noise * h).min(sigma0);
         let steps = self.options.anneal_steps.max(1);
         let kappa = (sigma_min / sigma0).powf(1.0 / steps as f64);
-        let mut iterations = 0;
-        let mut fk = ForwardKinematics::new(&self.model.skeleton, &self.pose);
+        let fk = ForwardKinematics::new(&self.model.skeleton, &self.pose);
         let all: Vec<usize> = (0..self.texture.len()).collect();
         if self.options.visible_only && self.seen.len() != self.texture.len() {
             // No view yet: the texture points with data near them from the start pose.
@@ -94,131 +96,41 @@ impl Tracker {
         } else {
             all.clone()
         };
-        let mut world: Vec<Point3> = Vec::new();
-        let (mut finds, mut timing) = (0, [0.0; 3]);
-        for level in 0..=steps {
-            let sigma = sigma0 * kappa.powi(level as i32);
-            let last = level == steps;
-            let active = if last || seen.len() < all.len() / 10 {
-                &all
-            } else {
-                &seen
-            };
-            let voxel = VOXEL_SIGMAS * sigma;
-            let coarse = self.options.coarse_to_fine && !last && voxel > 1.5 * self.spacing;
-            // Representatives at this level: of texture points and of data points.
-            let (model_reps, data_reps): (Vec<Representative>, Vec<Representative>) = if coarse {
-                world.clear();
-                world.extend(active.iter().map(|&i| self.texture[i].world(&fk)));
-                let reps = voxel_representatives(&world, voxel, |k| active[k]);
-                (reps, voxel_representatives(data, voxel, |j| j))
-            } else {
-                (
-                    active.iter().map(|&i| Representative::single(i)).collect(),
-                    Vec::new(),
-                )
-            };
-            let model_weight: Option<Vec<f64>> =
-                coarse.then(|| model_reps.iter().map(|r| r.count as f64).collect());
-            let points: Vec<Point3> = data_reps.iter().map(|r| data[r.index]).collect();
-            let data_weight: Option<Vec<f64>> =
-                coarse.then(|| data_reps.iter().map(|r| r.count as f64).collect());
-            let rounds = if last {
-                self.options.final_em_iterations
-            } else {
-                self.options.em_iterations
-            };
-            let level_data = if coarse { &points[..] } else { data };
-            // Neighbours found once per level, with a margin for the motion within it.
-            let margin = 0.5 * sigma;
-            let mut found_at: Option<Vec<Point3>> = None;
-            for _ in 0..rounds {
-                iterations += 1;
-                world.clear();
-                world.extend(model_reps.iter().map(|r| self.texture[r.index].world(&fk)));
-                let stale = found_at.as_ref().is_none_or(|at| {
-                    at.iter()
-                        .zip(&world)
-                        .any(|(a, b)| (a - b).norm_squared() > margin * margin)
-                });
-                let t0 = std::time::Instant::now();
-                if stale {
-                    self.candidates.find(
-                        level_data,
-                        &world,
-                        candidate_radius(sigma, margin),
-                        &mut self.grid,
-                    );
-                    found_at = Some(world.clone());
-                    finds += 1;
-                    tracing::trace!(
-                        "level {level} sigma {:.4}: {} data, {} model, {} candidates",
-                        sigma / h,
-                        level_data.len(),
-                        world.len(),
-                        self.candidates.len()
-                    );
-                }
-                let t1 = std::time::Instant::now();
-                em_step_with(
-                    WeightedPoints {
-                        points: level_data,
-                        weights: data_weight.as_deref(),
-                    },
-                    WeightedPoints {
-                        points: &world,
-                        weights: model_weight.as_deref(),
-                    },
-                    sigma,
-                    self.options.outlier_constant,
-                    &self.candidates,
-                    &mut self.em,
-                );
-                // Eq. (20): each model point pulled to G_i with weight lambda_i.
-                let pulls: Vec<Pull> = model_reps
-                    .iter()
-                    .enumerate()
-                    .filter(|(k, _)| self.em.lambda[*k] > 1e-9)
-                    .map(|(k, r)| {
-                        let point = self.texture[r.index];
-                        let mut target = self.em.target[k];
-                        if self.options.point_to_plane && self.model.surface_normals.is_some() {
-                            // Only the normal part of the pull: the point-to-plane
-                            // gradient, free of the tangential bias of blurred centroids.
-                            let x = world[k];
-                            let n = point.world_normal(&fk);
-                            target = x + n * n.dot(&(target - x));
-                        }
-                        Pull {
-                            point,
-                            target,
-                            weight: self.em.lambda[k],
-                        }
-                    })
-                    .collect();
-                let t2 = std::time::Instant::now();
-                let before = fk.clone();
-                self.fit(
-                    &pulls,
-                    &start,
-                    self.options.gauss_newton_steps,
-                    last,
-                    self.options.over_relaxation,
-                );
-                fk.update(&self.model.skeleton, &self.pose);
-                let t3 = std::time::Instant::now();
-                timing[0] += (t1 - t0).as_secs_f64();
-                timing[1] += (t2 - t1).as_secs_f64();
-                timing[2] += (t3 - t2).as_secs_f64();
-                // At the noise level, EM runs until the joints stop moving.
-                let moved = (0..fk.len())
-                    .map(|j| (fk.origin(j) - before.origin(j)).norm())
-                    .fold(0.0, f64::max);
-                if last && moved < CONVERGED_MOTION * h {
-                    break;
-                }
-            }
-        }
+        let schedule = Schedule {
+            widths: Widths::Geometric {
+                start: sigma0,
+                ratio: kappa,
+                steps,
+            },
+            rounds: self.options.em_iterations,
+            final_rounds: self.options.final_em_iterations,
+            tolerance: Some(CONVERGED_MOTION * h),
+        };
+        let mut frame = FrameEm {
+            tracker: self,
+            data,
+            start,
+            fk,
+            all,
+            seen,
+            world: Vec::new(),
+            model_reps: Vec::new(),
+            coarse_points: None,
+            model_weight: None,
+            data_weight: None,
+            found_at: None,
+            finds: 0,
+            timing: [0.0; 3],
+        };
+        let Ok(report) = run_em(&mut frame, &schedule);
+        let FrameEm {
+            start,
+            mut fk,
+            finds,
+            timing,
+            ..
+        } = frame;
+        let iterations = report.iterations;
         tracing::trace!(
             "{iterations} EM iterations, {finds} neighbour searches: {:.2} ms searching, {:.2} ms E-steps, {:.2} ms M-steps",
             timing[0] * 1e3,
@@ -272,6 +184,169 @@ impl Tracker {
     }
 }
 
+/// One frame's EM as a model of the engine's fitting loop: each level's representatives,
+/// the E-step of eq. (17) over them, the M-step pulling texture points to eq. (20)'s targets.
+struct FrameEm<'t, 'd> {
+    tracker: &'t mut Tracker,
+    data: &'d [Point3],
+    /// The pose the frame started from (the fit's prior).
+    start: Pose,
+    fk: ForwardKinematics,
+    /// Every texture point, and those the data supported at the end of the last frame.
+    all: Vec<usize>,
+    seen: Vec<usize>,
+    /// The representatives' world positions at the current pose.
+    world: Vec<Point3>,
+    model_reps: Vec<Representative>,
+    /// Coarse levels: the data's representatives, and both sides' counts.
+    coarse_points: Option<Vec<Point3>>,
+    model_weight: Option<Vec<f64>>,
+    data_weight: Option<Vec<f64>>,
+    /// Where the representatives were when their neighbours were last found.
+    found_at: Option<Vec<Point3>>,
+    finds: usize,
+    /// Seconds searching, in E-steps and in M-steps.
+    timing: [f64; 3],
+}
+
+impl EmModel for FrameEm<'_, '_> {
+    type Error = std::convert::Infallible;
+
+    fn begin_level(&mut self, stage: &Stage) -> Result<(), Self::Error> {
+        let tracker = &*self.tracker;
+        let sigma = stage.sigma;
+        let last = stage.last_level;
+        let active = if last || self.seen.len() < self.all.len() / 10 {
+            &self.all
+        } else {
+            &self.seen
+        };
+        let voxel = VOXEL_SIGMAS * sigma;
+        let coarse = tracker.options.coarse_to_fine && !last && voxel > 1.5 * tracker.spacing;
+        // Representatives at this level: of texture points and of data points.
+        let (model_reps, data_reps): (Vec<Representative>, Vec<Representative>) = if coarse {
+            self.world.clear();
+            self.world
+                .extend(active.iter().map(|&i| tracker.texture[i].world(&self.fk)));
+            let reps = voxel_representatives(&self.world, voxel, |k| active[k]);
+            (reps, voxel_representatives(self.data, voxel, |j| j))
+        } else {
+            (
+                active.iter().map(|&i| Representative::single(i)).collect(),
+                Vec::new(),
+            )
+        };
+        self.model_weight = coarse.then(|| model_reps.iter().map(|r| r.count as f64).collect());
+        self.coarse_points = coarse.then(|| data_reps.iter().map(|r| self.data[r.index]).collect());
+        self.data_weight = coarse.then(|| data_reps.iter().map(|r| r.count as f64).collect());
+        self.model_reps = model_reps;
+        // Neighbours found once per level, with a margin for the motion within it.
+        self.found_at = None;
+        Ok(())
+    }
+
+    fn e_step(&mut self, stage: &Stage) -> Result<Expectation, Self::Error> {
+        let sigma = stage.sigma;
+        let margin = 0.5 * sigma;
+        let tracker = &mut *self.tracker;
+        self.world.clear();
+        self.world.extend(
+            self.model_reps
+                .iter()
+                .map(|r| tracker.texture[r.index].world(&self.fk)),
+        );
+        let stale = self.found_at.as_ref().is_none_or(|at| {
+            at.iter()
+                .zip(&self.world)
+                .any(|(a, b)| (a - b).norm_squared() > margin * margin)
+        });
+        let level_data = self.coarse_points.as_deref().unwrap_or(self.data);
+        let t0 = std::time::Instant::now();
+        if stale {
+            tracker.candidates.find(
+                level_data,
+                &self.world,
+                candidate_radius(sigma, margin),
+                &mut tracker.grid,
+            );
+            self.found_at = Some(self.world.clone());
+            self.finds += 1;
+            tracing::trace!(
+                "level {} sigma {:.4}: {} data, {} model, {} candidates",
+                stage.level,
+                sigma / tracker.model.height,
+                level_data.len(),
+                self.world.len(),
+                tracker.candidates.len()
+            );
+        }
+        let t1 = std::time::Instant::now();
+        em_step_with(
+            WeightedPoints {
+                points: level_data,
+                weights: self.data_weight.as_deref(),
+            },
+            WeightedPoints {
+                points: &self.world,
+                weights: self.model_weight.as_deref(),
+            },
+            sigma,
+            tracker.options.outlier_constant,
+            &tracker.candidates,
+            &mut tracker.em,
+        );
+        self.timing[0] += (t1 - t0).as_secs_f64();
+        self.timing[1] += t1.elapsed().as_secs_f64();
+        Ok(Expectation::Ready)
+    }
+
+    fn m_step(&mut self, stage: &Stage) -> Result<Maximisation, Self::Error> {
+        let t1 = std::time::Instant::now();
+        let tracker = &mut *self.tracker;
+        let (world, fk) = (&self.world, &self.fk);
+        // Eq. (20): each model point pulled to G_i with weight lambda_i.
+        let pulls: Vec<Pull> = self
+            .model_reps
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| tracker.em.lambda[*k] > 1e-9)
+            .map(|(k, r)| {
+                let point = tracker.texture[r.index];
+                let mut target = tracker.em.target[k];
+                if tracker.options.point_to_plane && tracker.model.surface_normals.is_some() {
+                    // Only the normal part of the pull: the point-to-plane gradient, free of
+                    // the tangential bias of blurred centroids.
+                    let x = world[k];
+                    let n = point.world_normal(fk);
+                    target = x + n * n.dot(&(target - x));
+                }
+                Pull {
+                    point,
+                    target,
+                    weight: tracker.em.lambda[k],
+                }
+            })
+            .collect();
+        let t2 = std::time::Instant::now();
+        let before = self.fk.clone();
+        tracker.fit(
+            &pulls,
+            &self.start,
+            tracker.options.gauss_newton_steps,
+            stage.last_level,
+            tracker.options.over_relaxation,
+        );
+        self.fk.update(&tracker.model.skeleton, &tracker.pose);
+        self.timing[1] += (t2 - t1).as_secs_f64();
+        self.timing[2] += t2.elapsed().as_secs_f64();
+        // At the noise level, EM runs until the joints stop moving.
+        let moved = (0..self.fk.len())
+            .map(|j| (self.fk.origin(j) - before.origin(j)).norm())
+            .fold(0.0, f64::max);
+        Ok(Maximisation::moved(moved))
+    }
+}
+
 /// Prediction: `current` moved on by `gain` times the motion from `previous`.
 fn extrapolate(previous: &Pose, current: &Pose, gain: f64) -> Pose {
     let mut next = current.clone();
@@ -281,9 +356,7 @@ fn extrapolate(previous: &Pose, current: &Pose, gain: f64) -> Pose {
         .zip(&previous.local)
         .zip(&current.local)
     {
-        n.translation = c.translation + (c.translation - p.translation) * gain;
-        let step = (p.rotation.inverse() * c.rotation).scaled_axis() * gain;
-        n.rotation = Quat::new_normalize((c.rotation * Quat::from_scaled_axis(step)).into_inner());
+        (n.translation, n.rotation) = continued_trs(p, c, gain);
     }
     next
 }

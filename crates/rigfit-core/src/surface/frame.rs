@@ -1,0 +1,181 @@
+//! Fitting one frame: the patches start from their last motion continued, then EM through
+//! the engine's fitting loop: the E-step of eq. (7)-(8) over the blended predictions, one
+//! Gauss-Newton step on eq. (15) per M-step, and `sigma` set by the M-step (eq. 15), falling
+//! no faster than the annealing rate.
+
+use super::estep::{Observations, VertexTargets, e_step_predicted};
+use super::model::Predictions;
+use super::solve::{StepWeights, gauss_newton_step};
+use super::{FrameFit, SurfaceError, SurfaceTracker};
+use crate::engine::fitting_loop::{
+    EmModel, Expectation, Maximisation, Schedule, Stage, Widths, continued_rotation, run_em,
+};
+use crate::math::{Point3, Vector3};
+
+impl SurfaceTracker {
+    pub(super) fn track_in_pool(&mut self, data: &Observations) -> Result<FrameFit, SurfaceError> {
+        data.check()?;
+        self.cache.clear();
+        let last = self.pose.clone();
+        if self.options.extrapolate
+            && let Some(previous) = &self.previous
+        {
+            // Constant velocity: apply the last frame's motion of each patch once more.
+            for k in 0..self.model.patch_count() {
+                self.pose.rotation[k] =
+                    continued_rotation(&previous.rotation[k], &last.rotation[k]);
+                self.pose.centre[k] = last.centre[k] + (last.centre[k] - previous.centre[k]);
+            }
+        }
+        let diagonal = self.model.diagonal;
+        let min_sigma = self.options.min_sigma * diagonal;
+        let merged = (self.options.merge_cell > 0.0).then(|| {
+            // The points' mean spacing were they all on the reference's surface.
+            let area: f64 = self.model.area.iter().sum();
+            let spacing = (area / data.points.len() as f64).sqrt();
+            data.merged(self.options.merge_cell * spacing)
+        });
+        let data = merged.as_ref().unwrap_or(data);
+        let coarse_iterations = self
+            .options
+            .coarse_iterations
+            .min(self.options.max_iterations.saturating_sub(1));
+        // Thinned only while each patch keeps a few points on average.
+        let thinned = self.options.coarse_stride > 1
+            && coarse_iterations > 0
+            && data.points.len() / self.options.coarse_stride >= 8 * self.model.patch_count();
+        let schedule = Schedule {
+            widths: Widths::Estimated {
+                start: (self.options.initial_sigma * diagonal).max(min_sigma),
+                floor: min_sigma,
+                fall: self.options.anneal,
+                preliminary: if thinned { coarse_iterations } else { 0 },
+            },
+            rounds: 0,
+            final_rounds: self.options.max_iterations,
+            // The move measured is the Gauss-Newton step's, before relaxation.
+            tolerance: Some(self.options.tolerance * diagonal),
+        };
+        let predictions = self.model.predictions(&self.pose);
+        let mut frame = FrameEm {
+            positions: self.model.blended_positions(&predictions),
+            normals: self.model.blended_normals(&predictions),
+            predictions,
+            targets: VertexTargets::default(),
+            total: 0.0,
+            tracker: self,
+            data,
+        };
+        let report = run_em(&mut frame, &schedule)?;
+        let FrameEm {
+            positions, targets, ..
+        } = frame;
+        if positions.iter().any(|p| p.iter().any(|x| !x.is_finite())) {
+            // Never hand out a broken mesh: the next frame starts again from this one's start.
+            self.pose = last;
+            return Err(SurfaceError::Diverged);
+        }
+        self.previous = Some(last);
+        let total = targets.total_weight();
+        let rms = if total > 0.0 {
+            (targets.weighted_residual / total).sqrt()
+        } else {
+            0.0
+        };
+        Ok(FrameFit {
+            positions,
+            inliers: targets.inliers,
+            rms,
+            iterations: report.iterations,
+            sigma: report.sigma,
+        })
+    }
+}
+
+/// One frame's EM as a model of the engine's fitting loop.
+struct FrameEm<'t, 'd> {
+    tracker: &'t mut SurfaceTracker,
+    data: &'d Observations,
+    /// Each patch's prediction of its vertices at the current pose (eq. 1), and their blend
+    /// (eq. 2) with its normals.
+    predictions: Predictions,
+    positions: Vec<Point3>,
+    normals: Vec<Vector3>,
+    /// The last E-step's per-vertex targets and their total weight.
+    targets: VertexTargets,
+    total: f64,
+}
+
+impl EmModel for FrameEm<'_, '_> {
+    type Error = SurfaceError;
+
+    fn e_step(&mut self, stage: &Stage) -> Result<Expectation, SurfaceError> {
+        let tracker = &mut *self.tracker;
+        // The preliminary iterations run on one point in `coarse_stride`.
+        tracker.cache.set_stride(if stage.preliminary {
+            tracker.options.coarse_stride
+        } else {
+            1
+        });
+        self.targets = e_step_predicted(
+            &tracker.model,
+            &self.predictions,
+            &self.positions,
+            self.data,
+            stage.sigma,
+            &tracker.options.data,
+            &mut tracker.cache,
+        );
+        self.total = self.targets.total_weight();
+        Ok(if self.total <= 1e-9 {
+            Expectation::NoSupport
+        } else {
+            Expectation::Ready
+        })
+    }
+
+    fn m_step(&mut self, stage: &Stage) -> Result<Maximisation, SurfaceError> {
+        let tracker = &mut *self.tracker;
+        let sigma = stage.sigma;
+        let radius = tracker.options.patches.radius * tracker.model.diagonal;
+        // Eq. 15: data term (1 / sigma^2 per the Gaussian of eq. 7) plus rigidity.
+        let weights = StepWeights {
+            data: 1.0 / (sigma * sigma),
+            rigidity: tracker.options.rigidity / (radius * radius),
+            damping: tracker.options.damping,
+            tangential: tracker.options.tangential,
+            relaxation: if stage.preliminary {
+                tracker.options.coarse_relaxation
+            } else {
+                tracker.options.relaxation
+            },
+        };
+        gauss_newton_step(
+            &tracker.model,
+            &tracker.system,
+            &mut tracker.pose,
+            &self.positions,
+            &self.normals,
+            &self.targets,
+            &weights,
+        )?;
+        self.predictions = tracker.model.predictions(&tracker.pose);
+        let moved_to = tracker.model.blended_positions(&self.predictions);
+        // Eq. 15's M-step for sigma: the weighted mean squared residual per coordinate.
+        let sigma_em = (self.targets.residual(&moved_to) / (3.0 * self.total)).sqrt();
+        // Root mean square displacement of the vertices in this iteration.
+        let moved = (moved_to
+            .iter()
+            .zip(&self.positions)
+            .map(|(a, b)| (a - b).norm_squared())
+            .sum::<f64>()
+            / self.positions.len().max(1) as f64)
+            .sqrt();
+        self.positions = moved_to;
+        self.normals = tracker.model.blended_normals(&self.predictions);
+        Ok(Maximisation {
+            moved: moved / weights.relaxation,
+            sigma_estimate: Some(sigma_em),
+        })
+    }
+}
