@@ -163,7 +163,11 @@ pub fn run_em<M: EmModel>(model: &mut M, schedule: &Schedule) -> Result<LoopRepo
     let levels = schedule.widths.levels();
     let mut iterations = 0;
     // An empty schedule runs nothing and reports no width.
-    let mut sigma = if levels > 0 { schedule.widths.at(0) } else { 0.0 };
+    let mut sigma = if levels > 0 {
+        schedule.widths.at(0)
+    } else {
+        0.0
+    };
     let preliminary = match schedule.widths {
         Widths::Estimated { preliminary, .. } => preliminary,
         _ => 0,
