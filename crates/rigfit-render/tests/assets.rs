@@ -1,8 +1,6 @@
 //! Every real asset in ../shared/data drawn from three views: the picture has the right size,
 //! is not blank, and is drawn where the geometry projects.
 
-use std::path::PathBuf;
-
 use rigfit_core::{Point3, Stroke};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 use rigfit_render::color::BACKGROUND;
@@ -11,18 +9,7 @@ use rigfit_render::{
     pick_frames, render, render_cameras, render_side_by_side, side_by_side_cameras, tracking_sheet,
 };
 
-fn data(rel: &str) -> PathBuf {
-    let root = std::env::var("RIGFIT_DATA").unwrap_or_else(|_| {
-        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string()
-    });
-    let p = PathBuf::from(root).join(rel);
-    assert!(
-        p.exists(),
-        "test asset {} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh",
-        p.display()
-    );
-    p
-}
+use rigfit_testkit::assets::asset as data;
 
 /// Width and height from a PNG's IHDR chunk.
 fn png_size(bytes: &[u8]) -> (u32, u32) {

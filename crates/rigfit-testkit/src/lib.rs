@@ -11,6 +11,7 @@
 //!
 //! The `pose_corpus` example prints the tables; `tests/pose_corpus.rs` asserts the bounds.
 
+pub mod assets;
 pub mod corpus;
 pub mod report;
 pub mod scenario;

@@ -4,27 +4,13 @@
 //! the WebXR hand with 5 finger poses set here.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
-
 use rand::SeedableRng;
 use rigfit_core::pose::cases::{CaseOptions, limb_motion, make_case, mean_joint_error};
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
 use rigfit_core::{Pose, Quat, Rig};
 use rigfit_formats::rig_file::{RigOptions, StartFrame, read_rig};
 
-/// Path of a real test asset (RIGFIT_DATA, or ../shared/data beside the repository).
-pub fn asset(rel: &str) -> PathBuf {
-    let root = std::env::var("RIGFIT_DATA").unwrap_or_else(|_| {
-        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string()
-    });
-    let p = PathBuf::from(root).join(rel);
-    assert!(
-        p.exists(),
-        "test asset {} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh",
-        p.display()
-    );
-    p
-}
+pub use rigfit_testkit::assets::asset;
 
 /// One suite: a rig, the pose the solver starts from, and the true poses to recover.
 pub struct Suite {
