@@ -6,14 +6,7 @@ use rigfit_formats::gltf::{GltfDocument, parse_gltf, read_gltf, rig_to_glb};
 
 use rigfit_testkit::assets::asset as data;
 
-const RIGS: &[&str] = &[
-    "assimp/BCN_Epileptic.glb",
-    "assimp/Testwuson.glb",
-    "assimp/animation_with_skeleton.glb",
-    "assimp/simple_skin.gltf",
-    "webxr_hand/left.glb",
-    "webxr_hand/right.glb",
-];
+const RIGS: &[&str] = &rigfit_testkit::assets::GLTF_RIGS;
 
 fn no_uri(_: &str) -> Result<Vec<u8>, String> {
     Err("no external files here".into())

@@ -71,15 +71,10 @@ fn assert_drawn_at(image: &Image, cameras: &[Camera], points: &[Point3], what: &
 #[test]
 fn every_real_rig_is_drawn_where_its_joints_and_vertices_project() {
     let options = RenderOptions::default();
-    for file in [
-        "assimp/BCN_Epileptic.glb",
-        "assimp/Testwuson.glb",
-        "assimp/animation_with_skeleton.glb",
-        "assimp/simple_skin.gltf",
-        "webxr_hand/left.glb",
-        "webxr_hand/right.glb",
-        "cmu/01_01.bvh",
-    ] {
+    let files = rigfit_testkit::assets::GLTF_RIGS
+        .into_iter()
+        .chain(["cmu/01_01.bvh"]);
+    for file in files {
         let rig = read_rig(&data(file), &RigOptions::default())
             .expect("the asset reads")
             .rig;

@@ -7,6 +7,16 @@ use std::path::PathBuf;
 use rigfit_core::Rig;
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 
+/// The skinned glTF rigs among the real assets (characters, a simple skin, the WebXR hands).
+pub const GLTF_RIGS: [&str; 6] = [
+    "assimp/BCN_Epileptic.glb",
+    "assimp/Testwuson.glb",
+    "assimp/animation_with_skeleton.glb",
+    "assimp/simple_skin.gltf",
+    "webxr_hand/left.glb",
+    "webxr_hand/right.glb",
+];
+
 /// The environment variable naming the folder of real assets.
 pub const DATA_ENV: &str = "RIGFIT_DATA";
 

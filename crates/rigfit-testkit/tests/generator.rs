@@ -4,10 +4,10 @@
 
 use rand::SeedableRng;
 use rand::rngs::StdRng;
-use rigfit_core::pose::cases::{
-    CaseOptions, Coverage, deforming_joints, draw_case, limb_roots, mirror_pairs,
-};
+use rigfit_core::mirror::mirror_pairs;
+use rigfit_core::pose::sketch::{CaseOptions, Coverage, deforming_joints, draw_case};
 use rigfit_core::{Rig, Skeleton};
+use rigfit_testkit::targets::limb_roots;
 
 use rigfit_testkit::assets::asset_rig as rig;
 

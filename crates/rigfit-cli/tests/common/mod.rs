@@ -4,8 +4,6 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-pub mod pose_suites;
-
 #[allow(unused_imports)]
 pub use rigfit_testkit::assets::{asset as data, malformed_dir};
 

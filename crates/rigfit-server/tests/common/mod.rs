@@ -10,7 +10,7 @@ use axum::Router;
 use axum::body::Body;
 use axum::http::{HeaderMap, Request, StatusCode};
 use rand::SeedableRng;
-use rigfit_core::pose::cases::{CaseOptions, make_case};
+use rigfit_core::pose::sketch::{CaseOptions, make_case};
 use rigfit_core::{Pose, Rig};
 use rigfit_server::{AppState, ServerConfig};
 use serde_json::{Value, json};
