@@ -30,7 +30,8 @@ if [ ! -x "$venv/bin/python" ]; then
 fi
 "$venv/bin/pip" install -q numpy scipy trimesh==5.2.0 rustcpd==4.0.0 cycpd==0.28 pycpd==2.0.0
 
-"$cargo" build -q --release -p rigfit-cli --bin rigfit --example surface_sequence
+"$cargo" build -q --release -p rigfit-cli --bin rigfit
+"$cargo" build -q --release -p rigfit-testkit --example surface_sequence
 rigfit=$root/target/release/rigfit
 sequence=$root/target/release/examples/surface_sequence
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Surface tracking time against points per frame, rigfit and the PyPI peers on the same
 # scans (BCN_Epileptic's jump, 3 frames per size): prints "points<TAB>method<TAB>ms" rows
-# for `cargo run --release -p rigfit-cli --example surface_plots -- docs/img TIMES.tsv`.
+# for `cargo run --release -p rigfit-testkit --example surface_plots -- docs/img TIMES.tsv`.
 # cycpd runs at the smallest size only (20-30 s a frame at 10,000 points).
 #
 #   scripts/bench-surface-scaling.sh > target/surface-scaling.tsv
@@ -18,7 +18,8 @@ if [ ! -x "$venv/bin/python" ]; then
   python3 -m venv "$venv"
 fi
 "$venv/bin/pip" install -q numpy scipy trimesh==5.2.0 rustcpd==4.0.0 cycpd==0.28
-"$cargo" build -q --release -p rigfit-cli --bin rigfit --example surface_sequence
+"$cargo" build -q --release -p rigfit-cli --bin rigfit
+"$cargo" build -q --release -p rigfit-testkit --example surface_sequence
 for points in 2500 5000 10000 20000; do
   dir=$work/$points
   rm -rf "$dir" && mkdir -p "$dir"

@@ -21,9 +21,11 @@ work=$root/target/compare
 . scripts/test-data.sh
 mkdir -p "$work"
 
-# build REV NAME: the folder of a release build of REV (the working tree when REV is empty).
+# build REV NAME [CARGO BUILD ARGS...]: the folder of a release build of REV's `rigfit` (the
+# working tree when REV is empty), plus what the extra arguments name.
 build() {
   local rev=$1 name=$2 src target
+  shift 2
   if [ -z "$rev" ]; then
     src=$root
     target=$root/target
@@ -33,13 +35,18 @@ build() {
     git worktree remove --force "$src" 2>/dev/null || rm -rf "$src"
     git worktree add --detach --force "$src" "$rev" >/dev/null
   fi
-  (cd "$src" && CARGO_TARGET_DIR=$target cargo build --release -q -p rigfit-cli --bin rigfit --examples >&2)
+  (cd "$src" && CARGO_TARGET_DIR=$target cargo build --release -q -p rigfit-cli --bin rigfit >&2)
+  if [ $# -gt 0 ]; then
+    (cd "$src" && CARGO_TARGET_DIR=$target cargo build --release -q "$@" >&2)
+  fi
   echo "$target/release"
 }
 
 echo "== building ${old} and ${new:-the working tree}"
 old_bin=$(build "$old" old)
-new_bin=$(build "$new" new)
+# The inputs' generators are rigfit-testkit's examples, built at NEW only.
+new_bin=$(build "$new" new -p rigfit-testkit --example pose_cases --example track_sequence \
+  --example surface_sequence)
 
 echo "== inputs (with the new build's examples)"
 inputs=$work/inputs

@@ -4,7 +4,7 @@ frame on the same scans as rigfit and scored the same way.
 
 Usage: surface_peers.py SEQUENCE_DIR RIGFIT_OUT_DIR RIGFIT_REPORT FRAMES
 
-SEQUENCE_DIR is written by `cargo run --release -p rigfit-cli --example surface_sequence`
+SEQUENCE_DIR is written by `cargo run --release -p rigfit-testkit --example surface_sequence`
 (reference.ply, scan_NNNN.ply, truth_NNNN.ply, sequence.json); RIGFIT_OUT_DIR holds
 `rigfit surface`'s frame_NNNNN.ply for the same scans and RIGFIT_REPORT its JSON report.
 Prints one markdown row per method: mean and 95th percentile of the per-vertex error (as a

@@ -17,16 +17,12 @@ os.environ["BLENDER_USER_RESOURCES"] = USER
 import bpy  # noqa: E402  (after BLENDER_USER_RESOURCES)
 import pytest  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[2]
+# The helpers both test folders share sit in python/, above this one.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from shared_assets import REPO, asset  # noqa: E402
+
+__all__ = ["asset"]
 MODULE = "bl_ext.user_default.rigfit_blender"
-
-
-def asset(rel: str) -> Path:
-    root = Path(os.environ.get("RIGFIT_DATA", REPO.parent / "shared" / "data"))
-    path = root / rel
-    if not path.exists():
-        pytest.fail(f"test asset {path} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh")
-    return path
 
 
 @pytest.fixture(scope="session")

@@ -1,11 +1,13 @@
-"""Shared helpers: the real test assets (RIGFIT_DATA, or ../shared/data beside the repository)."""
+"""Shared helpers: the real test assets (python/shared_assets.py) and temporaries left."""
 
-import os
+import sys
 from pathlib import Path
 
-import pytest
+# The helpers both test folders share sit in python/, above this one.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from shared_assets import REPO, asset  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[2]
+__all__ = ["REPO", "asset", "no_temporaries"]
 
 
 def no_temporaries(folder: Path) -> None:
@@ -13,11 +15,3 @@ def no_temporaries(folder: Path) -> None:
     (the Rust writers'), ``.tmp`` files (rigfit.cluster's report), other dot-files."""
     left = [p for p in Path(folder).rglob("*") if p.name.startswith(".") or ".rigfit-" in p.name or p.suffix == ".tmp"]
     assert not left, left
-
-
-def asset(rel: str) -> Path:
-    root = Path(os.environ.get("RIGFIT_DATA", REPO.parent / "shared" / "data"))
-    path = root / rel
-    if not path.exists():
-        pytest.fail(f"test asset {path} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh")
-    return path

@@ -4,8 +4,7 @@
 #![allow(clippy::duplicate_mod)]
 
 mod common;
-#[path = "common/track_suites.rs"]
-mod track_suites;
+use rigfit_testkit::track_suites;
 
 use std::path::{Path, PathBuf};
 

@@ -8,7 +8,7 @@ use std::path::Path;
 use common::*;
 use rand::SeedableRng;
 use rigfit_core::Stroke;
-use rigfit_core::pose::cases::{CaseOptions, make_case};
+use rigfit_core::pose::sketch::{CaseOptions, make_case};
 use rigfit_formats::rig_file::{RigOptions, StartFrame, read_rig};
 use serde_json::Value;
 

@@ -37,16 +37,10 @@ fn scene_of(path: &Path) -> (Scene, Vec<Point3>) {
 #[test]
 fn renders_every_real_asset_where_its_geometry_projects() {
     let dir = tempfile::tempdir().expect("temp dir");
-    for file in [
-        "assimp/BCN_Epileptic.glb",
-        "assimp/Testwuson.glb",
-        "assimp/animation_with_skeleton.glb",
-        "assimp/simple_skin.gltf",
-        "webxr_hand/left.glb",
-        "webxr_hand/right.glb",
-        "cmu/01_01.bvh",
-        "bunny/bunny.ply",
-    ] {
+    let files = rigfit_testkit::assets::GLTF_RIGS
+        .into_iter()
+        .chain(["cmu/01_01.bvh", "bunny/bunny.ply"]);
+    for file in files {
         let input = data(file);
         let out = dir.path().join("picture.png");
         let o = rigfit(&["render", s(&input), "-o", s(&out), "--tile", "200"]);

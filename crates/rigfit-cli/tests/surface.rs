@@ -9,6 +9,8 @@ use common::*;
 use rigfit_core::TriMesh;
 use rigfit_core::math::{Point3, Quat, Vector3};
 use rigfit_formats::ply::{read_ply, write_ply};
+use rigfit_formats::rig_file::{RigOptions, read_rig};
+use rigfit_testkit::surface_cases::sample_surface;
 use serde_json::Value;
 
 fn s(p: &Path) -> &str {
@@ -107,8 +109,7 @@ fn truth_at(reference: &TriMesh, split: usize, f: usize) -> Vec<Point3> {
 fn scan(reference: &TriMesh, moved: &[Point3], seed: u64) -> TriMesh {
     use rand::{Rng, SeedableRng};
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-    let (mut points, _) =
-        rigfit_core::surface::cases::sample_surface(moved, &reference.triangles, 3000, &mut rng);
+    let (mut points, _) = sample_surface(moved, &reference.triangles, 3000, &mut rng);
     for _ in 0..500 {
         points.push(Point3::new(
             rng.random_range(-1.5..3.0),
@@ -364,4 +365,46 @@ fn render_draws_a_contact_sheet_and_rejects_a_bad_picture_path() {
     args.extend(frames.iter().map(|f| s(f)));
     args.extend(["-o", s(&out), "--render", s(bad)]);
     assert_bad_input(&rigfit(&args), bad);
+}
+
+#[test]
+fn a_glb_reference_is_its_skinned_mesh() {
+    use rand::SeedableRng;
+    let path = data("assimp/BCN_Epileptic.glb");
+    let rig = read_rig(&path, &RigOptions::default()).expect("asset").rig;
+    let surface = rig.skinned_surface(&rig.pose);
+    let mut rng = rand::rngs::StdRng::seed_from_u64(1);
+    let (points, normals) = sample_surface(&surface.vertices, &surface.triangles, 8000, &mut rng);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let frame = dir.path().join("scan.ply");
+    write_ply(
+        &frame,
+        &TriMesh {
+            vertices: points,
+            normals: Some(normals),
+            triangles: Vec::new(),
+        },
+    )
+    .expect("write");
+    let out = dir.path().join("out");
+    let o = rigfit(&[
+        "surface",
+        path.to_str().expect("utf-8"),
+        frame.to_str().expect("utf-8"),
+        "-o",
+        out.to_str().expect("utf-8"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let fitted = read_ply(&out.join("frame_00000.ply")).expect("output");
+    assert_eq!(fitted.vertices.len(), surface.vertices.len());
+    assert_eq!(fitted.triangles, surface.triangles);
+    let diagonal = surface.bounds().expect("bounds").diagonal();
+    let mean = fitted
+        .vertices
+        .iter()
+        .zip(&surface.vertices)
+        .map(|(a, b)| (a - b).norm())
+        .sum::<f64>()
+        / surface.vertices.len() as f64;
+    assert!(mean < 0.01 * diagonal, "mean {mean}");
 }

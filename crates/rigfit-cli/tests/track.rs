@@ -1,11 +1,9 @@
 //! `rigfit track` end to end: frames written as PLY files from a ground-truth sequence,
 //! tracked through the command line, results read back; and bad input.
-// The shared suites include pose_suites.rs as `common` does: the same file twice.
 #![allow(clippy::duplicate_mod)]
 
 mod common;
-#[path = "common/track_suites.rs"]
-mod track_suites;
+use rigfit_testkit::track_suites;
 
 use std::path::{Path, PathBuf};
 

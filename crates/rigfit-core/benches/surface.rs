@@ -5,19 +5,12 @@
 //! `cargo bench -p rigfit-core --bench surface`
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use rigfit_core::surface::cases::bending_torus_scans;
-use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker, e_step};
+use rigfit_core::surface::{SurfaceOptions, SurfaceTracker, e_step};
+use rigfit_testkit::surface_cases::warmed_torus_tracker;
 
 fn surface(c: &mut Criterion) {
-    let (reference, scans) = bending_torus_scans(3, 3);
+    let (reference, frames, tracker) = warmed_torus_tracker();
     let diagonal = reference.bounds().expect("bounds").diagonal();
-    let frames: Vec<Observations> = scans
-        .iter()
-        .map(|cloud| Observations::from_mesh(cloud).expect("frame"))
-        .collect();
-    let mut tracker = SurfaceTracker::new(&reference, &SurfaceOptions::default()).expect("tracker");
-    tracker.track(&frames[0]).expect("frame 0");
-    tracker.track(&frames[1]).expect("frame 1");
     let mut group = c.benchmark_group("surface");
     group.sample_size(20);
     group.bench_function("track_5k_vertices_10k_points", |b| {

@@ -5,23 +5,15 @@
 
 use std::time::Instant;
 
-use rigfit_core::surface::cases::{bend, bending_torus_scans};
-use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker};
+use rigfit_testkit::surface_cases::{bend, warmed_torus_tracker};
 
 fn main() {
     let repeats: usize = std::env::args()
         .nth(1)
         .and_then(|a| a.parse().ok())
         .unwrap_or(5);
-    let (reference, scans) = bending_torus_scans(3, 3);
+    let (reference, frames, tracker) = warmed_torus_tracker();
     let diagonal = reference.bounds().expect("bounds").diagonal();
-    let frames: Vec<Observations> = scans
-        .iter()
-        .map(|cloud| Observations::from_mesh(cloud).expect("frame"))
-        .collect();
-    let mut tracker = SurfaceTracker::new(&reference, &SurfaceOptions::default()).expect("tracker");
-    tracker.track(&frames[0]).expect("frame 0");
-    tracker.track(&frames[1]).expect("frame 1");
     let truth = bend(&reference, 0.3);
     for _ in 0..repeats {
         let mut t = tracker.clone();

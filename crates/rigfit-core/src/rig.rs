@@ -1,7 +1,7 @@
 //! A rigged character: skeleton, its stored pose, skinned meshes and animations.
 
 use crate::animation::{Animation, ChannelTarget};
-use crate::geometry::Aabb;
+use crate::geometry::{Aabb, TriMesh};
 use crate::math::{Point3, Vector3};
 use crate::skeleton::{JointDof, JointKind, Pose, Skeleton};
 
@@ -228,6 +228,23 @@ impl Rig {
             .enumerate()
             .filter(|(_, j)| !matches!(j.kind, JointKind::Helper | JointKind::SkinTip))
             .map(|(i, _)| i)
+    }
+
+    /// Every skinned mesh in `pose`, concatenated, with area-weighted face normals: the
+    /// surface a `.glb` reference gives `surface` (`rigfit_formats::mesh_file::read_surface`,
+    /// Python's `Rig.mesh`).
+    pub fn skinned_surface(&self, pose: &Pose) -> TriMesh {
+        let world = self.skeleton.world_matrices(pose);
+        let mut mesh = TriMesh::default();
+        for m in &self.meshes {
+            let offset = mesh.vertices.len() as u32;
+            let (positions, _) = m.skin(&world);
+            mesh.vertices.extend(positions);
+            mesh.triangles
+                .extend(m.triangles.iter().map(|t| t.map(|i| i + offset)));
+        }
+        mesh.normals = Some(mesh.vertex_normals_from_faces());
+        mesh
     }
 }
 

@@ -2,7 +2,7 @@
 //! bones of the character (as game rigs exported from Minecraft-like models need).
 
 use rigfit_core::pose::bones::BoneModel;
-use rigfit_core::pose::cases::limb_chains;
+use rigfit_core::pose::sketch::limb_chains;
 use rigfit_core::{
     Joint, JointDof, JointKind, Matrix4, Point3, Rig, Skeleton, SkinnedMesh, Trs, Vector3,
 };

@@ -4,7 +4,6 @@
 use std::path::Path;
 
 use rigfit_core::TriMesh;
-use rigfit_core::surface::cases::skinned_surface;
 
 use crate::error::{FormatError, ParseError, extension};
 use crate::rig_file::{RigOptions, read_rig};
@@ -33,7 +32,7 @@ pub fn read_surface(path: &Path) -> Result<TriMesh, FormatError> {
                     ParseError::new("", "the skin has no mesh"),
                 ));
             }
-            Ok(skinned_surface(&file.rig, &file.rig.pose))
+            Ok(file.rig.skinned_surface(&file.rig.pose))
         }
         "ply" | "obj" => read_mesh(path),
         _ => Err(FormatError::Unsupported {

@@ -10,16 +10,8 @@ use rigfit_core::{
 };
 use rigfit_formats::bvh::{BvhChannel, BvhDocument, BvhJoint, parse_bvh, read_bvh};
 
-fn data_dir() -> PathBuf {
-    std::env::var_os("RIGFIT_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"))
-        })
-}
-
 fn cmu_path() -> PathBuf {
-    data_dir().join("cmu/01_01.bvh")
+    rigfit_testkit::assets::asset("cmu/01_01.bvh")
 }
 
 /// The CMU file's text and parsed document, read once.

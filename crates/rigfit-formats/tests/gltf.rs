@@ -1,32 +1,12 @@
 //! glTF on the real assets: loading, round trips, skinning and Jacobians.
 
-use std::path::PathBuf;
-
 use rigfit_core::kinematics::numeric_point_jacobian;
 use rigfit_core::{DofLayout, ForwardKinematics, Point3, Quat, Rig, Vector3};
 use rigfit_formats::gltf::{GltfDocument, parse_gltf, read_gltf, rig_to_glb};
 
-fn data(rel: &str) -> PathBuf {
-    let root = std::env::var("RIGFIT_DATA").unwrap_or_else(|_| {
-        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string()
-    });
-    let p = PathBuf::from(root).join(rel);
-    assert!(
-        p.exists(),
-        "test asset {} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh",
-        p.display()
-    );
-    p
-}
+use rigfit_testkit::assets::asset as data;
 
-const RIGS: &[&str] = &[
-    "assimp/BCN_Epileptic.glb",
-    "assimp/Testwuson.glb",
-    "assimp/animation_with_skeleton.glb",
-    "assimp/simple_skin.gltf",
-    "webxr_hand/left.glb",
-    "webxr_hand/right.glb",
-];
+const RIGS: &[&str] = &rigfit_testkit::assets::GLTF_RIGS;
 
 fn no_uri(_: &str) -> Result<Vec<u8>, String> {
     Err("no external files here".into())

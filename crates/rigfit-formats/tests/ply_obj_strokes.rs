@@ -1,7 +1,7 @@
 //! Tests of the PLY, OBJ and strokes readers and writers: round trips, the real assets, every
 //! malformed sample in `tests/malformed/`, and a never-panics sweep over damaged inputs.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use rigfit_core::{Point3, Stroke, TriMesh, Vector3};
 use rigfit_formats::FormatError;
@@ -13,25 +13,7 @@ use rigfit_formats::strokes::{parse_strokes, read_strokes, strokes_json, write_s
 // Helpers
 // ---------------------------------------------------------------------------------------
 
-/// The shared data directory: `RIGFIT_DATA` if set, else `../../../shared/data` from here.
-fn data_dir() -> PathBuf {
-    let dir = std::env::var_os("RIGFIT_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"))
-        });
-    assert!(
-        dir.is_dir(),
-        "the shared test data directory {} is missing; set RIGFIT_DATA to the directory \
-         holding bunny/bunny.ply and assimp/pond.0.ply",
-        dir.display()
-    );
-    dir
-}
-
-fn malformed_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/malformed")
-}
+use rigfit_testkit::assets::{asset, malformed_dir};
 
 /// A unit cube: 8 corners (exact in f32), 12 triangles, outward corner normals.
 fn cube() -> TriMesh {
@@ -434,7 +416,7 @@ fn ply_truncated_binary_names_the_row() {
 
 #[test]
 fn bunny_loads() {
-    let path = data_dir().join("bunny/bunny.ply");
+    let path = asset("bunny/bunny.ply");
     let m = read_ply(&path).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(m.vertices.len(), 1839);
     assert_eq!(m.triangles.len(), 3674);
@@ -460,7 +442,7 @@ fn check_pond_prefix(m: &TriMesh, rows: usize) {
 
 #[test]
 fn pond_point_cloud_loads_with_normals() {
-    let path = data_dir().join("assimp/pond.0.ply");
+    let path = asset("assimp/pond.0.ply");
     let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let header_len = bytes
         .windows(11)

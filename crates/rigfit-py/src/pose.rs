@@ -4,7 +4,7 @@
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use rand::SeedableRng;
-use rigfit_core::pose::cases::{CaseOptions, make_case};
+use rigfit_core::pose::sketch::{CaseOptions, make_case};
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose as core_solve_pose};
 use rigfit_core::{Point3, Stroke};
 

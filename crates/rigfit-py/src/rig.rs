@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 use numpy::PyArray2;
 use pyo3::prelude::*;
 use rigfit_core::joint_model::with_clip_ranges;
-use rigfit_core::surface::cases::skinned_surface;
 use rigfit_core::{Pose, Rig};
 use rigfit_formats::FormatError;
 use rigfit_formats::files::{check_outputs, write_atomic};
@@ -177,7 +176,7 @@ impl PyRig {
             )));
         }
         let pose = self.posed(rotations, translations)?;
-        let mesh = py.detach(|| skinned_surface(self.rig(), &pose));
+        let mesh = py.detach(|| self.rig().skinned_surface(&pose));
         Ok((
             to_rows(py, &point_rows(&mesh.vertices))?,
             to_triangles(py, &mesh.triangles)?,

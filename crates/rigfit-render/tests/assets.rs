@@ -1,8 +1,6 @@
 //! Every real asset in ../shared/data drawn from three views: the picture has the right size,
 //! is not blank, and is drawn where the geometry projects.
 
-use std::path::PathBuf;
-
 use rigfit_core::{Point3, Stroke};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 use rigfit_render::color::BACKGROUND;
@@ -11,18 +9,7 @@ use rigfit_render::{
     pick_frames, render, render_cameras, render_side_by_side, side_by_side_cameras, tracking_sheet,
 };
 
-fn data(rel: &str) -> PathBuf {
-    let root = std::env::var("RIGFIT_DATA").unwrap_or_else(|_| {
-        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string()
-    });
-    let p = PathBuf::from(root).join(rel);
-    assert!(
-        p.exists(),
-        "test asset {} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh",
-        p.display()
-    );
-    p
-}
+use rigfit_testkit::assets::asset as data;
 
 /// Width and height from a PNG's IHDR chunk.
 fn png_size(bytes: &[u8]) -> (u32, u32) {
@@ -84,15 +71,10 @@ fn assert_drawn_at(image: &Image, cameras: &[Camera], points: &[Point3], what: &
 #[test]
 fn every_real_rig_is_drawn_where_its_joints_and_vertices_project() {
     let options = RenderOptions::default();
-    for file in [
-        "assimp/BCN_Epileptic.glb",
-        "assimp/Testwuson.glb",
-        "assimp/animation_with_skeleton.glb",
-        "assimp/simple_skin.gltf",
-        "webxr_hand/left.glb",
-        "webxr_hand/right.glb",
-        "cmu/01_01.bvh",
-    ] {
+    let files = rigfit_testkit::assets::GLTF_RIGS
+        .into_iter()
+        .chain(["cmu/01_01.bvh"]);
+    for file in files {
         let rig = read_rig(&data(file), &RigOptions::default())
             .expect("the asset reads")
             .rig;

@@ -7,7 +7,7 @@ use rigfit_core::Skeleton;
 use rigfit_core::joint_model::{
     ClipModelOptions, apply_joint_model, joint_model_from_clips, with_clip_ranges,
 };
-use rigfit_core::pose::cases::deforming_joints;
+use rigfit_core::pose::sketch::deforming_joints;
 use rigfit_core::{Pose, Rig, Vector3};
 use rigfit_formats::joints_file::read_joints_file;
 use rigfit_formats::rig_file::{RigOptions, StartFrame, read_rig};

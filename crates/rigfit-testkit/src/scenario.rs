@@ -1,11 +1,11 @@
 //! The sweep's scenarios (which chains are drawn, how, and toward which poses) and the
 //! deterministic generation of a scenario's case on a corpus rig.
 
+use crate::targets::{FarPoseOptions, clip_pose, far_pose, mirror_pose};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
-use rigfit_core::pose::cases::{
-    Case, CaseOptions, Coverage, FarPoseOptions, JointErrors, clip_pose, desktop_view, draw_case,
-    far_pose, joint_errors, mirror_pose,
+use rigfit_core::pose::sketch::{
+    Case, CaseOptions, Coverage, JointErrors, desktop_view, draw_case, joint_errors,
 };
 use rigfit_core::{Pose, Skeleton};
 

@@ -4,9 +4,8 @@
 use std::time::Instant;
 
 use rayon::prelude::*;
-use rigfit_core::Stroke;
-use rigfit_core::pose::cases::limb_motion;
 use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem, PoseResult, solve_pose};
+use rigfit_core::{Point3, Pose, Skeleton, Stroke};
 
 use crate::corpus::{Corpus, CorpusError, CorpusRig, Half, RigKind};
 use crate::scenario::{GeneratedCase, Scenario, TargetKind, generate_case};
@@ -118,7 +117,7 @@ impl Outcome {
 pub fn stroke_misfit(
     skeleton: &rigfit_core::Skeleton,
     pose: &rigfit_core::Pose,
-    case: &rigfit_core::pose::cases::Case,
+    case: &rigfit_core::pose::sketch::Case,
     height: f64,
 ) -> f64 {
     let positions = skeleton.joint_positions(pose);
@@ -172,7 +171,7 @@ pub fn stroke_misfit(
 /// markers: nothing says which marker a stroke draws). Strays stay unpinned.
 pub fn pinned_to_markers(
     skeleton: &rigfit_core::Skeleton,
-    case: &rigfit_core::pose::cases::Case,
+    case: &rigfit_core::pose::sketch::Case,
 ) -> Vec<rigfit_core::Stroke> {
     case.strokes
         .iter()
@@ -338,4 +337,34 @@ pub fn sweep(
         outcomes.extend(rig_outcomes);
     }
     Ok(outcomes)
+}
+
+/// How far an undrawn chain moved relative to where it attaches: the largest change, between
+/// `start` and `solved`, of its joints' positions in the frame of its first joint, as a
+/// fraction of `height`. Zero when the limb kept its start pose.
+pub fn limb_motion(
+    skeleton: &Skeleton,
+    start: &Pose,
+    solved: &Pose,
+    chain: &[usize],
+    height: f64,
+) -> f64 {
+    let ws = skeleton.world_matrices(start);
+    let wr = skeleton.world_matrices(solved);
+    let anchor = chain[0];
+    let (Some(is), Some(ir)) = (ws[anchor].try_inverse(), wr[anchor].try_inverse()) else {
+        return f64::INFINITY;
+    };
+    // Distances measured in the start frame's units.
+    let scale = ws[anchor].fixed_view::<3, 3>(0, 0).column(0).norm();
+    chain[1..]
+        .iter()
+        .map(|&j| {
+            let p = |w: &rigfit_core::math::Matrix4| Point3::new(w[(0, 3)], w[(1, 3)], w[(2, 3)]);
+            let a = rigfit_core::math::transform_point(&is, &p(&ws[j]));
+            let b = rigfit_core::math::transform_point(&ir, &p(&wr[j]));
+            (a - b).norm() * scale
+        })
+        .fold(0.0, f64::max)
+        / height
 }

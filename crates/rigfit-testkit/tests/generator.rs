@@ -2,34 +2,14 @@
 //! and helper chains drawn when every chain is, mirror pairs by the rigs' own names, far and
 //! flattened cases.
 
-use std::path::PathBuf;
-
 use rand::SeedableRng;
 use rand::rngs::StdRng;
-use rigfit_core::pose::cases::{
-    CaseOptions, Coverage, deforming_joints, draw_case, limb_roots, mirror_pairs,
-};
+use rigfit_core::mirror::mirror_pairs;
+use rigfit_core::pose::sketch::{CaseOptions, Coverage, deforming_joints, draw_case};
 use rigfit_core::{Rig, Skeleton};
-use rigfit_formats::rig_file::{RigOptions, read_rig};
+use rigfit_testkit::targets::limb_roots;
 
-fn asset(rel: &str) -> PathBuf {
-    let root = std::env::var("RIGFIT_DATA").unwrap_or_else(|_| {
-        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string()
-    });
-    let path = PathBuf::from(root).join(rel);
-    assert!(
-        path.exists(),
-        "test asset {} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh",
-        path.display()
-    );
-    path
-}
-
-fn rig(rel: &str) -> Rig {
-    read_rig(&asset(rel), &RigOptions::default())
-        .unwrap_or_else(|e| panic!("{e}"))
-        .rig
-}
+use rigfit_testkit::assets::asset_rig as rig;
 
 /// The names of the joints the strokes of a case with `coverage` run through.
 fn drawn_names(rig: &Rig, coverage: Coverage, seed: u64) -> Vec<String> {

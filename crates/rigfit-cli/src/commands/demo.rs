@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use rand::SeedableRng;
-use rigfit_core::pose::cases::{CaseOptions, make_case, mean_joint_error};
+use rigfit_core::pose::sketch::{CaseOptions, make_case, mean_joint_error};
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
 use rigfit_formats::files::{commit_all, stage};
 use rigfit_formats::report::{pose_report, to_text};

@@ -1,23 +1,11 @@
 //! Helpers shared by the command-line tests.
 #![allow(dead_code)]
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
-pub mod pose_suites;
-
-/// Path of a real test asset (RIGFIT_DATA, or ../shared/data beside the repository).
-pub fn data(rel: &str) -> PathBuf {
-    pose_suites::asset(rel)
-}
-
-/// The malformed-input corpus.
-pub fn malformed_dir() -> PathBuf {
-    PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../rigfit-formats/tests/malformed"
-    ))
-}
+#[allow(unused_imports)]
+pub use rigfit_testkit::assets::{asset as data, malformed_dir};
 
 /// Runs `rigfit` with arguments.
 pub fn rigfit(args: &[&str]) -> Output {

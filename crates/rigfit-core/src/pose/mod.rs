@@ -15,7 +15,6 @@ mod annealing;
 mod assignment;
 pub mod beautify;
 pub mod bones;
-pub mod cases;
 mod chains;
 mod fitting;
 mod local_moves;
@@ -23,6 +22,7 @@ mod mirror_image;
 mod multi_start;
 mod options;
 mod setup;
+pub mod sketch;
 mod solver;
 
 use crate::interrupt::Interrupt;

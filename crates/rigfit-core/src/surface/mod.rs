@@ -5,11 +5,11 @@
 //! class ([`estep`]), then one Gauss-Newton step on the data term plus the rigidity energy
 //! ([`solve`]). Each frame starts from the previous one's result.
 //!
-//! [`cases`] draws ground-truth scan sequences from skinned characters (tests, benches) and
-//! a procedural torus for speed measurements without assets.
+//! The ground-truth scan sequences of the tests and benches are rigfit-testkit's
+//! (`surface_cases`); `test_meshes` (core's own tests, and rigfit-testkit through the
+//! `test-meshes` feature) holds the torus they share.
 
 pub mod bounds;
-pub mod cases;
 pub mod estep;
 mod frame;
 pub mod model;
@@ -17,6 +17,8 @@ pub mod nearest;
 pub mod patches;
 pub mod point_tree;
 pub mod solve;
+#[cfg(any(test, feature = "test-meshes"))]
+pub mod test_meshes;
 
 pub use bounds::{OptionError, SurfaceOption};
 pub use estep::{
@@ -302,7 +304,7 @@ impl SurfaceTracker {
 
 #[cfg(test)]
 mod tests {
-    use super::cases::{bend, scan, torus};
+    use super::test_meshes::{bend, scan, torus};
     use super::*;
     use rand::SeedableRng;
 

@@ -10,7 +10,6 @@
 //! fine correspondences at large `sigma`, and texture points kept on the model's own
 //! surface instead of refreshed from the (noisy) data every frame.
 
-pub mod cases;
 mod frame;
 mod m_step;
 mod model;

@@ -6,39 +6,18 @@ pub mod http;
 pub mod load;
 pub mod rigs;
 
-use std::path::PathBuf;
-
 use axum::Router;
 use axum::body::Body;
 use axum::http::{HeaderMap, Request, StatusCode};
 use rand::SeedableRng;
-use rigfit_core::pose::cases::{CaseOptions, make_case};
+use rigfit_core::pose::sketch::{CaseOptions, make_case};
 use rigfit_core::{Pose, Rig};
 use rigfit_server::{AppState, ServerConfig};
 use serde_json::{Value, json};
 use tower::ServiceExt as _;
 
-/// Path of a real test asset (RIGFIT_DATA, or ../shared/data beside the repository).
-pub fn asset(rel: &str) -> PathBuf {
-    let root = std::env::var("RIGFIT_DATA").unwrap_or_else(|_| {
-        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string()
-    });
-    let p = PathBuf::from(root).join(rel);
-    assert!(
-        p.exists(),
-        "test asset {} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh",
-        p.display()
-    );
-    p
-}
-
-/// The malformed-input corpus of rigfit-formats.
-pub fn malformed_dir() -> PathBuf {
-    PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../rigfit-formats/tests/malformed"
-    ))
-}
+#[allow(unused_imports)]
+pub use rigfit_testkit::assets::{asset, malformed_dir};
 
 /// A server state holding the built-in humanoid as `c0`, and its router.
 pub fn app() -> (AppState, Router) {

@@ -342,9 +342,9 @@ fn morton_order(points: &[Point3]) -> Vec<u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::surface::cases::{bend, scan, torus};
     use crate::surface::estep::{DataTermOptions, e_step, e_step_cached};
     use crate::surface::model::PatchOptions;
+    use crate::surface::test_meshes::{bend, scan, torus};
     use rand::SeedableRng;
 
     /// A torus's patch model and a scan of the torus bent (4,000 points, a tenth clutter),

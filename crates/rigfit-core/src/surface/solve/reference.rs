@@ -9,9 +9,9 @@ use super::gauss_newton::{damp_solve_and_apply, data_terms};
 use super::patch_system::{BlendPair, DiagonalEntry, RigidityPair};
 use super::{Block, PatchSystem, SolveError, StepWeights, gauss_newton_step};
 use crate::math::{Matrix3, Point3, Vector3, exp_rotation, skew};
-use crate::surface::cases::torus;
 use crate::surface::estep::VertexTargets;
 use crate::surface::model::{PatchModel, PatchOptions, PatchPose};
+use crate::surface::test_meshes::torus;
 use rand::{Rng, SeedableRng};
 
 type PairTerms = (usize, usize, [u32; 3], [Block; 3], [f64; 12]);

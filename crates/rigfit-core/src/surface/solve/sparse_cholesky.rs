@@ -285,8 +285,8 @@ fn fill_reducing_order(
 #[cfg(test)]
 mod tests {
     use super::super::PatchSystem;
-    use crate::surface::cases::torus;
     use crate::surface::model::{PatchModel, PatchOptions};
+    use crate::surface::test_meshes::torus;
     use rand::{Rng, SeedableRng};
 
     /// The sparse solve satisfies the block system it was given.

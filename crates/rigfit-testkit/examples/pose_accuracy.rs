@@ -4,12 +4,11 @@
 //!
 //! `cargo run --release -p rigfit-cli --example pose_accuracy` (`VERBOSE=1` for every case)
 
-#[path = "../tests/common/pose_suites.rs"]
-mod pose_suites;
+use rigfit_testkit::pose_suites;
 
 use pose_suites::solve_cases;
 use rigfit_core::pose::PoseOptions;
-use rigfit_core::pose::cases::CaseOptions;
+use rigfit_core::pose::sketch::CaseOptions;
 
 fn main() {
     let methods: Vec<(&str, PoseOptions)> = vec![

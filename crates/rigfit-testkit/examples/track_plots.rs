@@ -9,15 +9,14 @@
 #[path = "common/plot_file.rs"]
 mod plot_file;
 
-#[path = "../tests/common/track_suites.rs"]
-mod track_suites;
+use rigfit_testkit::track_suites;
 
 use std::path::{Path, PathBuf};
 
 use plot_file::write;
 use rigfit_core::track::TrackOptions;
-use rigfit_core::track::cases::SequenceOptions;
 use rigfit_render::{Chart, Series, line_chart};
+use rigfit_testkit::track_cases::SequenceOptions;
 
 const FRAMES: usize = track_suites::FRAMES;
 const SUITES: [&str; 2] = ["hand", "BCN_Epileptic"];

@@ -127,7 +127,7 @@ fn hangs_below(skeleton: &Skeleton, outer: &[usize], inner: &[usize]) -> bool {
 
 /// The indices of the chains among `chains` that are at least `min_length` long and below
 /// which no other such chain hangs: the arms, legs, heads and tails of a body.
-pub(super) fn outer_limbs(
+pub fn outer_limbs(
     skeleton: &Skeleton,
     chains: &[Vec<usize>],
     lengths: &[f64],

@@ -4,12 +4,12 @@
 use rand::Rng;
 use rand_distr::{Distribution, UnitSphere};
 
-use super::coverage::{chain_length, limb_chains, outer_limbs};
-use crate::animation::{Animation, ChannelTarget, Interpolation};
-use crate::joint_model::limit_excess;
-use crate::math::{Quat, Vector3};
-use crate::mirror::mirror_pairs;
-use crate::skeleton::{Joint, JointDof, JointKind, Pose, Skeleton};
+use rigfit_core::animation::{Animation, ChannelTarget, Interpolation};
+use rigfit_core::joint_model::limit_excess;
+use rigfit_core::math::{Quat, Vector3};
+use rigfit_core::mirror::mirror_pairs;
+use rigfit_core::pose::sketch::{chain_length, limb_chains, outer_limbs};
+use rigfit_core::skeleton::{Joint, JointDof, JointKind, Pose, Skeleton};
 
 /// A limb's first bone counts as a short link (a clavicle, a hip joint) and the limb turns
 /// at the next joint when it is shorter than this fraction of the next bone.

@@ -8,13 +8,13 @@ use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
-use crate::geometry::{Aabb, TriMesh};
-use crate::kinematics::ForwardKinematics;
-use crate::math::{Point3, Quat, Vector3};
-use crate::rig::Rig;
-use crate::skeleton::Pose;
-use crate::track::parts::PartModel;
-use crate::track::texture::sample_triangles;
+use rigfit_core::geometry::{Aabb, TriMesh};
+use rigfit_core::kinematics::ForwardKinematics;
+use rigfit_core::math::{Point3, Quat, Vector3};
+use rigfit_core::rig::Rig;
+use rigfit_core::skeleton::Pose;
+use rigfit_core::track::parts::PartModel;
+use rigfit_core::track::texture::sample_triangles;
 
 /// How to draw a sequence.
 #[derive(Clone, Debug)]
@@ -334,7 +334,7 @@ pub fn make_sequence(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::humanoid::humanoid;
+    use rigfit_core::humanoid::humanoid;
 
     #[test]
     fn a_camera_sees_the_front_not_the_back() {

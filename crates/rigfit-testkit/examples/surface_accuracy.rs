@@ -10,17 +10,13 @@ use std::time::Instant;
 
 use rand::SeedableRng;
 use rand::rngs::StdRng;
-use rigfit_core::surface::cases::{
-    SequenceOptions, SurfaceSequence, find_animation, make_sequence, mean_and_p95, vertex_errors,
-};
 use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
+use rigfit_testkit::surface_cases::{
+    SequenceOptions, SurfaceSequence, find_animation, make_sequence, mean_and_p95, vertex_errors,
+};
 
-fn data(rel: &str) -> std::path::PathBuf {
-    let root = std::env::var("RIGFIT_DATA")
-        .unwrap_or_else(|_| concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").into());
-    std::path::Path::new(&root).join(rel)
-}
+use rigfit_testkit::assets::asset as data;
 
 /// Tracks a sequence: (mean, p95, mean over the missing limb in its hole frames, ms/frame,
 /// iterations/frame, patches).

@@ -5,11 +5,10 @@
 //! `cargo run --release -p rigfit-cli --example track_accuracy [SUITE...]` (`VERBOSE=1`
 //! prints every frame)
 
-#[path = "../tests/common/track_suites.rs"]
-mod track_suites;
+use rigfit_testkit::track_suites;
 
-use rigfit_core::track::cases::SequenceOptions;
 use rigfit_core::track::{TextureSource, TrackOptions};
+use rigfit_testkit::track_cases::SequenceOptions;
 
 fn main() {
     let paper = TrackOptions::paper();

@@ -3,11 +3,9 @@
 //! undrawn that limb moves less than 0.5% of the height (relative to where it attaches); with
 //! one stray stroke the error bound holds as well. The paper's method runs on the same cases.
 
-mod common;
-
-use common::pose_suites::{self, solve_cases};
 use rigfit_core::pose::PoseOptions;
-use rigfit_core::pose::cases::CaseOptions;
+use rigfit_core::pose::sketch::CaseOptions;
+use rigfit_testkit::pose_suites::{self, solve_cases};
 
 /// Solves every case of every suite; returns the errors and the largest undrawn-limb motion.
 fn run(options: &PoseOptions, scenario: &CaseOptions) -> (Vec<f64>, f64) {

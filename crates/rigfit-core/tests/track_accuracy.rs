@@ -3,11 +3,10 @@
 //! 25% outliers. Mean joint error below 3% of the height over each sequence, and no frame
 //! above 10% (no lost track).
 
-#[path = "common/track_suites.rs"]
-mod track_suites;
+use rigfit_testkit::track_suites;
 
 use rigfit_core::track::TrackOptions;
-use rigfit_core::track::cases::SequenceOptions;
+use rigfit_testkit::track_cases::SequenceOptions;
 
 fn check(name: &'static str) {
     let suite = track_suites::suite(name, track_suites::FRAMES, &SequenceOptions::default());

@@ -5,13 +5,12 @@
 //!
 //! `cargo run --release -p rigfit-cli --example pose_cases -- OUT`
 
-#[path = "../tests/common/pose_suites.rs"]
-mod pose_suites;
+use rigfit_testkit::pose_suites;
 
 use std::path::PathBuf;
 
 use rand::SeedableRng;
-use rigfit_core::pose::cases::{CaseOptions, make_case};
+use rigfit_core::pose::sketch::{CaseOptions, make_case};
 use rigfit_formats::strokes::write_strokes;
 
 fn main() -> anyhow::Result<()> {
@@ -49,7 +48,7 @@ fn main() -> anyhow::Result<()> {
                 let file = out.join(format!("{stem}_{t}_{label}.json"));
                 write_strokes(&file, &case.strokes)?;
                 cases.push(serde_json::json!({
-                    "rig": pose_suites::asset(source).display().to_string(),
+                    "rig": rigfit_testkit::assets::asset(source).display().to_string(),
                     "start_frame": suite.name.ends_with(".bvh").then_some("rest"),
                     "strokes": file.display().to_string(),
                     "name": format!("{stem}_{t}_{label}"),

@@ -1,13 +1,13 @@
-//! Ground-truth posing cases from real rigs: pose the rig (a frame of its own animation, or
-//! a random pose far from the start, [`targets`]), draw one polyline per chain through the
-//! true joint positions (the limbs, every chain, or a few limbs: [`Coverage`]), resample
-//! densely, add Gaussian noise, optionally flatten each stroke in depth as seen from one
-//! view, shuffle stroke order and direction, optionally drop limbs and add stray strokes.
-//! Used by tests, benchmarks, the `demo` command and rigfit-testkit's corpus sweep.
+//! Strokes sketched through a pose, as a user would draw them: one polyline per chain
+//! through the joint positions (the limbs, every chain, or a few limbs: [`Coverage`]),
+//! resampled densely, with Gaussian noise, optionally flattened in depth as seen from one
+//! view, in shuffled order and direction, optionally with limbs left undrawn and stray
+//! strokes; and how far a solved pose's joints are from the pose drawn ([`joint_errors`]).
+//! `rigfit demo` and Python's `draw_strokes` draw their strokes here; rigfit-testkit builds
+//! its ground-truth cases on it (the true poses are its `targets`).
 
 mod coverage;
 mod drawing;
-mod targets;
 
 use rand::Rng;
 use rand::seq::SliceRandom;
@@ -17,13 +17,11 @@ use crate::math::{Point3, Vector3};
 use crate::skeleton::{Pose, Skeleton};
 use crate::strokes::Stroke;
 
-pub use crate::mirror::mirror_pairs;
 pub use coverage::{
     Coverage, EVERY_CHAIN_MIN_LENGTH, FEW_LIMBS, chain_deforms, chain_length, deforming_joints,
-    limb_chains,
+    limb_chains, outer_limbs,
 };
 pub use drawing::{desktop_view, flatten_stroke};
-pub use targets::{FarPoseOptions, clip_pose, far_pose, limb_roots, mirror_pose};
 
 /// How to draw a case.
 #[derive(Clone, Debug)]
@@ -226,36 +224,3 @@ pub fn mean_joint_error(
 ) -> f64 {
     joint_errors(skeleton, solved, truth, joints, height).mean
 }
-
-/// How far an undrawn chain moved relative to where it attaches: the largest change, between
-/// `start` and `solved`, of its joints' positions in the frame of its first joint, as a
-/// fraction of `height`. Zero when the limb kept its start pose.
-pub fn limb_motion(
-    skeleton: &Skeleton,
-    start: &Pose,
-    solved: &Pose,
-    chain: &[usize],
-    height: f64,
-) -> f64 {
-    let ws = skeleton.world_matrices(start);
-    let wr = skeleton.world_matrices(solved);
-    let anchor = chain[0];
-    let (Some(is), Some(ir)) = (ws[anchor].try_inverse(), wr[anchor].try_inverse()) else {
-        return f64::INFINITY;
-    };
-    // Distances measured in the start frame's units.
-    let scale = ws[anchor].fixed_view::<3, 3>(0, 0).column(0).norm();
-    chain[1..]
-        .iter()
-        .map(|&j| {
-            let p = |w: &crate::math::Matrix4| Point3::new(w[(0, 3)], w[(1, 3)], w[(2, 3)]);
-            let a = crate::math::transform_point(&is, &p(&ws[j]));
-            let b = crate::math::transform_point(&ir, &p(&wr[j]));
-            (a - b).norm() * scale
-        })
-        .fold(0.0, f64::max)
-        / height
-}
-
-#[cfg(test)]
-mod tests;

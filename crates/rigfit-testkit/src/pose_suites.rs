@@ -2,31 +2,19 @@
 //! accuracy table example: 01_01.bvh at 10 frames spread over the clip from its rest pose;
 //! BCN_Epileptic.glb and Testwuson.glb at 5 times of their first clip from their stored pose;
 //! the WebXR hand with 5 finger poses set here.
-#![allow(dead_code)]
 
-use std::path::PathBuf;
-
+use crate::sweep::limb_motion;
 use rand::SeedableRng;
-use rigfit_core::pose::cases::{CaseOptions, limb_motion, make_case, mean_joint_error};
+use rigfit_core::humanoid::humanoid;
+use rigfit_core::pose::sketch::{CaseOptions, make_case, mean_joint_error};
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
-use rigfit_core::{Pose, Quat, Rig};
+use rigfit_core::{Joint, Pose, Quat, Rig, Skeleton, Trs, Vector3};
 use rigfit_formats::rig_file::{RigOptions, StartFrame, read_rig};
 
-/// Path of a real test asset (RIGFIT_DATA, or ../shared/data beside the repository).
-pub fn asset(rel: &str) -> PathBuf {
-    let root = std::env::var("RIGFIT_DATA").unwrap_or_else(|_| {
-        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string()
-    });
-    let p = PathBuf::from(root).join(rel);
-    assert!(
-        p.exists(),
-        "test asset {} is missing: set RIGFIT_DATA or run scripts/fetch-data.sh",
-        p.display()
-    );
-    p
-}
+use crate::assets::asset;
 
 /// One suite: a rig, the pose the solver starts from, and the true poses to recover.
+#[derive(Debug)]
 pub struct Suite {
     pub name: String,
     pub rig: Rig,
@@ -158,4 +146,26 @@ pub fn solve_cases(suite: &Suite, options: &PoseOptions, scenario: &CaseOptions)
             }
         })
         .collect()
+}
+
+/// The humanoid with extra joints `(name, parent, offset)` that no vertex follows.
+pub fn humanoid_with(extra: &[(&str, &str, [f64; 3])]) -> Rig {
+    let mut rig = humanoid();
+    let mut joints = rig.skeleton.joints().to_vec();
+    for &(name, parent, offset) in extra {
+        let parent = joints.iter().position(|j| j.name == parent);
+        joints.push(Joint::new(
+            name,
+            parent,
+            Trs::from_translation(Vector3::from(offset)),
+        ));
+    }
+    rig.skeleton = Skeleton::new(joints).expect("parents come first");
+    rig.skeleton.set_default_dofs();
+    rig.pose = rig.skeleton.rest_pose();
+    for mesh in &mut rig.meshes {
+        mesh.inverse_bind
+            .resize(rig.skeleton.len(), rigfit_core::math::Matrix4::identity());
+    }
+    rig
 }

@@ -11,9 +11,9 @@ use std::path::PathBuf;
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rigfit_core::TriMesh;
-use rigfit_core::surface::cases::{SequenceOptions, find_animation, make_sequence};
 use rigfit_formats::ply::write_ply;
 use rigfit_formats::rig_file::{RigOptions, read_rig};
+use rigfit_testkit::surface_cases::{SequenceOptions, find_animation, make_sequence};
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();

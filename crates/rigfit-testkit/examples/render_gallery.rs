@@ -5,14 +5,11 @@
 //!
 //! `cargo run --release -p rigfit-cli --example render_gallery [OUT_DIR]` (default docs/img)
 
-#[path = "../tests/common/pose_suites.rs"]
-mod pose_suites;
-
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use rand::{Rng, SeedableRng};
-use rigfit_core::pose::cases::{CaseOptions, make_case, mean_joint_error};
+use rigfit_core::pose::sketch::{CaseOptions, make_case, mean_joint_error};
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
 use rigfit_core::{Point3, Vector3};
 use rigfit_formats::rig_file::{RigOptions, StartFrame, read_rig};
@@ -40,7 +37,7 @@ fn main() {
         tile: 320,
         ..Default::default()
     };
-    let asset = pose_suites::asset;
+    let asset = rigfit_testkit::assets::asset;
 
     // A rig: skinned mesh shaded flat, skeleton on top.
     let bcn = read_rig(&asset("assimp/BCN_Epileptic.glb"), &RigOptions::default()).expect("rig");

@@ -8,8 +8,7 @@
 #[path = "common/plot_file.rs"]
 mod plot_file;
 
-#[path = "../tests/common/pose_suites.rs"]
-mod pose_suites;
+use rigfit_testkit::pose_suites;
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -17,7 +16,7 @@ use std::time::Instant;
 use plot_file::write;
 use rand::SeedableRng;
 use rigfit_core::pose::beautify::resample;
-use rigfit_core::pose::cases::{CaseOptions, make_case};
+use rigfit_core::pose::sketch::{CaseOptions, make_case};
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
 use rigfit_core::{Pose, Rig, Stroke};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
@@ -150,7 +149,7 @@ fn main() {
 
     // Time against the number of stroke points, log-log.
     let file = read_rig(
-        &pose_suites::asset("assimp/BCN_Epileptic.glb"),
+        &rigfit_testkit::assets::asset("assimp/BCN_Epileptic.glb"),
         &RigOptions::default(),
     )
     .expect("rig");

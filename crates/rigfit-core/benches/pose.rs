@@ -5,17 +5,15 @@
 //!
 //! `cargo bench -p rigfit-cli --bench pose`
 
-#[path = "../tests/common/pose_suites.rs"]
-mod pose_suites;
-
 use criterion::{Criterion, criterion_group, criterion_main};
 use rand::SeedableRng;
 use rigfit_core::joint_model::with_clip_ranges;
 use rigfit_core::pose::beautify::resample;
-use rigfit_core::pose::cases::{CaseOptions, FarPoseOptions, far_pose, make_case};
+use rigfit_core::pose::sketch::{CaseOptions, make_case};
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
 use rigfit_core::{Pose, Rig, Stroke};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
+use rigfit_testkit::targets::{FarPoseOptions, far_pose};
 
 /// `count` strokes of exactly `points` points drawn from `truth` along chains at least
 /// `min_chain_length` of the height, longest chains first.
@@ -98,7 +96,7 @@ fn bench_rig(
 
 fn bench(c: &mut Criterion) {
     let file = read_rig(
-        &pose_suites::asset("assimp/BCN_Epileptic.glb"),
+        &rigfit_testkit::assets::asset("assimp/BCN_Epileptic.glb"),
         &RigOptions::default(),
     )
     .expect("rig");

@@ -7,10 +7,14 @@
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
-use crate::geometry::{Aabb, TriMesh};
-use crate::math::{Point3, Vector3};
-use crate::rig::Rig;
-use crate::skeleton::Pose;
+use rigfit_core::geometry::{Aabb, TriMesh};
+use rigfit_core::math::{Point3, Vector3};
+use rigfit_core::rig::Rig;
+use rigfit_core::skeleton::Pose;
+use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker};
+
+/// The test meshes of core (its own unit tests use them): a torus, bent, scanned.
+pub use rigfit_core::surface::test_meshes::{bend, sample_surface, scan, torus};
 
 /// How to draw a sequence. Lengths are fractions of the reference's bounding-box diagonal.
 #[derive(Clone, Debug)]
@@ -61,21 +65,6 @@ pub struct SurfaceSequence {
     pub diagonal: f64,
 }
 
-/// Every skinned mesh of `rig` in `pose`, concatenated, with area-weighted face normals.
-pub fn skinned_surface(rig: &Rig, pose: &Pose) -> TriMesh {
-    let world = rig.skeleton.world_matrices(pose);
-    let mut mesh = TriMesh::default();
-    for m in &rig.meshes {
-        let offset = mesh.vertices.len() as u32;
-        let (positions, _) = m.skin(&world);
-        mesh.vertices.extend(positions);
-        mesh.triangles
-            .extend(m.triangles.iter().map(|t| t.map(|i| i + offset)));
-    }
-    mesh.normals = Some(mesh.vertex_normals_from_faces());
-    mesh
-}
-
 /// The animation of `rig` whose name contains `name` (case-insensitive), else the first.
 pub fn find_animation(rig: &Rig, name: &str) -> usize {
     let name = name.to_ascii_lowercase();
@@ -111,26 +100,6 @@ fn limb_vertices(rig: &Rig, share: f64) -> Vec<usize> {
     }
 }
 
-/// Uniform samples of a triangle mesh's surface, with the faces' normals.
-pub fn sample_surface(
-    vertices: &[Point3],
-    triangles: &[[u32; 3]],
-    count: usize,
-    rng: &mut impl Rng,
-) -> (Vec<Point3>, Vec<Vector3>) {
-    crate::geometry::sample_triangles(vertices, triangles, count, rng)
-        .into_iter()
-        .map(|(p, t)| {
-            let [a, b, c] = triangles[t].map(|i| vertices[i as usize]);
-            let normal = (b - a)
-                .cross(&(c - a))
-                .try_normalize(1e-300)
-                .unwrap_or_else(Vector3::y);
-            (p, normal)
-        })
-        .unzip()
-}
-
 /// Draws a sequence of `rig`'s animation `animation` (the rig's stored pose if it has none).
 pub fn make_sequence(
     rig: &Rig,
@@ -157,7 +126,7 @@ pub fn make_sequence(
         }
         None => vec![rig.pose.clone(); frames],
     };
-    let reference = skinned_surface(rig, &poses[0]);
+    let reference = rig.skinned_surface(&poses[0]);
     let bounds = Aabb::from_points(&reference.vertices).unwrap_or(Aabb {
         min: Point3::origin(),
         max: Point3::new(1.0, 1.0, 1.0),
@@ -182,7 +151,7 @@ pub fn make_sequence(
     let mut truth = Vec::with_capacity(frames);
     let mut scans = Vec::with_capacity(frames);
     for (f, pose) in poses.iter().enumerate() {
-        let surface = skinned_surface(rig, pose);
+        let surface = rig.skinned_surface(pose);
         let triangles = if options.hole_frames.contains(&f) {
             &visible_triangles
         } else {
@@ -251,55 +220,6 @@ pub fn mean_and_p95(errors: &[f64]) -> (f64, f64) {
     (mean, p95)
 }
 
-/// A torus of `rings` x `segments` vertices (major radius 1, minor radius 0.35) around the
-/// y axis, with face normals: a reference of any size for speed measurements.
-pub fn torus(rings: usize, segments: usize) -> TriMesh {
-    let mut vertices = Vec::with_capacity(rings * segments);
-    for i in 0..rings {
-        let u = 2.0 * std::f64::consts::PI * i as f64 / rings as f64;
-        for j in 0..segments {
-            let v = 2.0 * std::f64::consts::PI * j as f64 / segments as f64;
-            let r = 1.0 + 0.35 * v.cos();
-            vertices.push(Point3::new(r * u.cos(), 0.35 * v.sin(), r * u.sin()));
-        }
-    }
-    let index = |i: usize, j: usize| ((i % rings) * segments + (j % segments)) as u32;
-    let mut triangles = Vec::with_capacity(2 * rings * segments);
-    for i in 0..rings {
-        for j in 0..segments {
-            let (a, b, c, d) = (
-                index(i, j),
-                index(i + 1, j),
-                index(i, j + 1),
-                index(i + 1, j + 1),
-            );
-            triangles.push([a, c, b]);
-            triangles.push([b, c, d]);
-        }
-    }
-    let mut mesh = TriMesh {
-        vertices,
-        normals: None,
-        triangles,
-    };
-    mesh.normals = Some(mesh.vertex_normals_from_faces());
-    mesh
-}
-
-/// `mesh` bent: every vertex turned about the z axis by an angle growing with its x, and
-/// lifted, by `amount` (0: unchanged).
-pub fn bend(mesh: &TriMesh, amount: f64) -> Vec<Point3> {
-    mesh.vertices
-        .iter()
-        .map(|p| {
-            let angle = amount * (p.x + 1.5) * 0.3;
-            let (s, c) = angle.sin_cos();
-            Point3::new(c * p.x - s * p.y, s * p.x + c * p.y, p.z)
-                + Vector3::new(0.0, amount * 0.2, 0.0)
-        })
-        .collect()
-}
-
 /// The speed case of the surface bench: a 5,000-vertex torus (100 x 50) and `frames` scans
 /// of it bent 0.15 more each frame ([`bend`]), 10,000 points each with 1% noise and 15%
 /// clutter ([`scan`]), drawn with `seed`.
@@ -323,36 +243,17 @@ pub fn bending_torus_scans(frames: usize, seed: u64) -> (TriMesh, Vec<TriMesh>) 
     (reference, scans)
 }
 
-/// A scan of `vertices` (with `triangles`): `count` points, Gaussian noise of `noise` (per
-/// coordinate) and a fraction `outlier_ratio` of uniform clutter around it.
-pub fn scan(
-    vertices: &[Point3],
-    triangles: &[[u32; 3]],
-    count: usize,
-    noise: f64,
-    outlier_ratio: f64,
-    rng: &mut impl Rng,
-) -> TriMesh {
-    let outliers = (count as f64 * outlier_ratio).round() as usize;
-    let (mut points, mut normals) =
-        sample_surface(vertices, triangles, count.saturating_sub(outliers), rng);
-    let normal = Normal::new(0.0, noise.max(1e-300)).expect("valid deviation");
-    for p in &mut points {
-        *p += Vector3::new(normal.sample(rng), normal.sample(rng), normal.sample(rng));
-    }
-    let bounds = Aabb::from_points(vertices).unwrap_or(Aabb {
-        min: Point3::origin(),
-        max: Point3::new(1.0, 1.0, 1.0),
-    });
-    for _ in 0..outliers {
-        points.push(Point3::from(Vector3::from_fn(|i, _| {
-            rng.random_range(bounds.min[i] - 0.2..bounds.max[i] + 0.2)
-        })));
-        normals.push(Vector3::y());
-    }
-    TriMesh {
-        vertices: points,
-        normals: Some(normals),
-        triangles: Vec::new(),
-    }
+/// The surface bench's case ([`bending_torus_scans`], 3 frames, seed 3): the reference, the
+/// frames as observations, and a tracker (default options) that has tracked the first two,
+/// so that frame 2 is the one measured (the bench, the `surface_frame` example).
+pub fn warmed_torus_tracker() -> (TriMesh, Vec<Observations>, SurfaceTracker) {
+    let (reference, scans) = bending_torus_scans(3, 3);
+    let frames: Vec<Observations> = scans
+        .iter()
+        .map(|cloud| Observations::from_mesh(cloud).expect("frame"))
+        .collect();
+    let mut tracker = SurfaceTracker::new(&reference, &SurfaceOptions::default()).expect("tracker");
+    tracker.track(&frames[0]).expect("frame 0");
+    tracker.track(&frames[1]).expect("frame 1");
+    (reference, frames, tracker)
 }

@@ -16,12 +16,11 @@ use std::path::{Path, PathBuf};
 use plot_file::write;
 use rand::SeedableRng;
 use rand::rngs::StdRng;
-use rigfit_core::surface::cases::{
+use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker};
+use rigfit_render::{Chart, Series, line_chart};
+use rigfit_testkit::surface_cases::{
     SequenceOptions, find_animation, make_sequence, mean_and_p95, vertex_errors,
 };
-use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker};
-use rigfit_formats::rig_file::{RigOptions, read_rig};
-use rigfit_render::{Chart, Series, line_chart};
 
 /// Mean and p95 per-vertex error (% of the diagonal) of tracking a fresh sequence.
 fn error(
@@ -87,14 +86,7 @@ fn main() {
     let dir = PathBuf::from(args.next().unwrap_or_else(|| "docs/img".into()));
     let times = args.next().map(PathBuf::from);
     std::fs::create_dir_all(&dir).expect("output folder");
-    let root = std::env::var("RIGFIT_DATA")
-        .unwrap_or_else(|_| concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").into());
-    let rig = read_rig(
-        &Path::new(&root).join("assimp/BCN_Epileptic.glb"),
-        &RigOptions::default(),
-    )
-    .expect("asset")
-    .rig;
+    let rig = rigfit_testkit::assets::asset_rig("assimp/BCN_Epileptic.glb");
     let base = SequenceOptions {
         frames: 12,
         ..SequenceOptions::default()

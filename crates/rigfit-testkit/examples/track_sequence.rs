@@ -6,16 +6,15 @@
 //! (suites: BCN_Epileptic, Testwuson, hand, 01_01), then
 //! `rigfit track target/track-demo/start.glb target/track-demo/frame_*.ply -o track.glb`
 
-#[path = "../tests/common/track_suites.rs"]
-mod track_suites;
+use rigfit_testkit::track_suites;
 
 use std::path::PathBuf;
 
 use rigfit_core::TriMesh;
-use rigfit_core::track::cases::SequenceOptions;
 use rigfit_formats::ply::write_ply;
 use rigfit_formats::report::{to_text, track_frame_json};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
+use rigfit_testkit::track_cases::SequenceOptions;
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -34,7 +33,11 @@ fn main() {
         "01_01" => "cmu/01_01.bvh",
         _ => "webxr_hand/left.glb",
     };
-    let rig_file = read_rig(&track_suites::asset(source), &RigOptions::default()).expect("rig");
+    let rig_file = read_rig(
+        &rigfit_testkit::assets::asset(source),
+        &RigOptions::default(),
+    )
+    .expect("rig");
     let start = dir.join(if name == "01_01" {
         "start.bvh"
     } else {

@@ -6,12 +6,11 @@
 //!
 //! `RAYON_NUM_THREADS=1 cargo bench -p rigfit-cli --bench track`
 
-#[path = "../tests/common/track_suites.rs"]
-mod track_suites;
+use rigfit_testkit::track_suites;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use rigfit_core::track::cases::SequenceOptions;
 use rigfit_core::track::{TrackOptions, Tracker};
+use rigfit_testkit::track_cases::SequenceOptions;
 
 fn bench_suite(c: &mut Criterion, label: &str, name: &'static str, points: usize) {
     let options = SequenceOptions {

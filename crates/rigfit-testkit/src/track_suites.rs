@@ -4,24 +4,20 @@
 //! and 01_01.bvh every fourth frame (30 per second) with ellipsoids sized from bone
 //! lengths, from 1 s in (its frame 0 is a calibration T-pose). Each: 60 frames, about 2,000 points a frame seen from two cameras, 1% noise,
 //! 25% outliers. Tracking starts from the first frame's true pose.
-#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use crate::track_cases::{SequenceFrame, SequenceOptions, clip_poses, hand_motion, make_sequence};
 use rigfit_core::Pose;
 use rigfit_core::Rig;
-use rigfit_core::track::cases::{
-    SequenceFrame, SequenceOptions, clip_poses, hand_motion, make_sequence,
-};
 use rigfit_core::track::{ArticulatedModel, TrackOptions, Tracker};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 
-#[path = "pose_suites.rs"]
-mod pose_suites;
-pub use pose_suites::asset;
+use crate::assets::asset;
 
 /// A rig and a generated sequence.
+#[derive(Debug)]
 pub struct TrackSuite {
     pub name: &'static str,
     pub rig: Rig,
