@@ -12,9 +12,7 @@ pub mod bounds;
 pub mod cases;
 pub mod estep;
 pub mod model;
-pub mod nearest;
 pub mod patches;
-pub mod point_tree;
 pub mod solve;
 
 pub use bounds::{OptionError, SurfaceOption};

@@ -4,8 +4,8 @@
 
 use super::m_step::Pull;
 use super::{FrameFit, TextureSource, TrackError, Tracker};
-use crate::engine::em::{WeightedPoints, candidate_radius, em_step, em_step_with};
-use crate::engine::point_grid::voxel_subsample;
+use crate::engine::voxel_subsample;
+use crate::engine::{WeightedPoints, candidate_radius, em_step, em_step_with};
 use crate::kinematics::ForwardKinematics;
 use crate::math::{Point3, Quat};
 use crate::skeleton::Pose;

@@ -8,7 +8,7 @@
 
 use nalgebra::DMatrix;
 
-use crate::engine::normal_equations::NormalSink;
+use crate::engine::linear_algebra::NormalSink;
 use crate::kinematics::DofLayout;
 use crate::math::Matrix3;
 
