@@ -5,6 +5,12 @@
 //! class ([`estep`]), then one Gauss-Newton step on the data term plus the rigidity energy
 //! ([`solve`]). Each frame starts from the previous one's result.
 //!
+//! What is not particular to patches is the engine's: the posteriors' Gaussian kernel and
+//! normalisation against the outlier class ([`crate::engine::correspondence::posterior`]),
+//! the kd-trees and the Morton order ([`crate::engine::spatial`]), and the block-sparse
+//! normal equations with their sparse Cholesky factorisation
+//! ([`crate::engine::linear_algebra`]), into which [`solve`] assembles the patches' terms.
+//!
 //! [`cases`] draws ground-truth scan sequences from skinned characters (tests, benches) and
 //! a procedural torus for speed measurements without assets.
 
@@ -76,16 +82,15 @@ pub struct SurfaceOptions {
     pub max_iterations: usize,
     /// A frame is done when the vertices moved less than this (root mean square) in an
     /// iteration's Gauss-Newton step. The default, 0.1% of the diagonal, is about a tenth
-    /// of the error the tracker reaches on the real assets; with the steps over-relaxed,
-    /// 0.09% costs 5% more iterations for 0.01 points of Testwuson's mean error
-    /// (BENCHMARKS.md).
+    /// of the error the tracker reaches on the real assets (BENCHMARKS.md weighs it against
+    /// tighter ones).
     pub tolerance: f64,
     /// Levenberg-Marquardt damping of the Gauss-Newton step.
     pub damping: f64,
     /// Each full iteration moves the patches by this multiple of the Gauss-Newton step
     /// (over-relaxation; 1: the step itself). EM creeps toward its fixed point, each step
-    /// a fraction of the way; a longer step gets there in fewer iterations (on the real
-    /// assets 1.7 takes a fifth fewer iterations to a smaller error, BENCHMARKS.md).
+    /// a fraction of the way; a longer step gets there in fewer iterations (BENCHMARKS.md
+    /// measures the default).
     pub relaxation: f64,
     /// The same for the thinned first iterations (see `coarse_stride`).
     pub coarse_relaxation: f64,
@@ -101,10 +106,10 @@ pub struct SurfaceOptions {
     pub anneal: f64,
     /// Each frame's points are merged by cubes and by normal direction before fitting
     /// ([`Observations::merged`]): cubes of this many times the points' mean spacing (as if
-    /// they all lay on the reference's surface); 0 fits every point (the default). At 2 the
-    /// real assets track as accurately in about 0.8 of the time, but a merged point lies inside a curved surface by a fraction
-    /// of a spacing, which on coarse meshes sampled sparsely costs more than the noise it
-    /// averages (BENCHMARKS.md).
+    /// they all lay on the reference's surface); 0 fits every point (the default). A merged
+    /// point lies inside a curved surface by a fraction of a spacing, which on coarse meshes
+    /// sampled sparsely costs more than the noise it averages (BENCHMARKS.md measures both
+    /// sides).
     pub merge_cell: f64,
     /// A frame's first `coarse_iterations` use one point in `coarse_stride` along the E-step's
     /// spatial order (each standing for the ones it skips; [`EStepCache::set_stride`]): they

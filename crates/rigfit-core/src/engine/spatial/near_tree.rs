@@ -8,8 +8,8 @@ use super::nearest_few::{NearestFew, Pending};
 
 /// Points per leaf. Leaves are full (but the last), padded with points at infinity, so that
 /// a leaf's distances are one fixed-length loop the compiler vectorises. 32 is the width of
-/// the leaf's bit mask and measured best (BENCHMARKS.md): fewer nodes to descend and to
-/// build, for distances that cost little more.
+/// the leaf's bit mask (larger leaves: fewer nodes to descend and to build, more distances
+/// per leaf; BENCHMARKS.md has the choice).
 const LEAF: usize = 32;
 const _: () = assert!(LEAF <= 32, "a leaf's mask is a u32");
 
