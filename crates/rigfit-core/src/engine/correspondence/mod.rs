@@ -1,8 +1,9 @@
 //! Correspondence: soft weights between data points and model points with an outlier
-//! class. [`softassign`] is the two-sided strategy (Gold et al.; Cannavò's posing), [`em`]
-//! the one-sided one (Dewaele et al. 2006, eq. 17) over the [`candidates`] found in a grid;
-//! [`posterior`] holds what every one-sided E-step shares, the Gaussian kernel and the
-//! normalisation against the outlier class (the surface tracker's E-step uses it too).
+//! class. [`softassign`](mod@softassign) is the two-sided strategy (Gold et al.; Cannavò's
+//! posing), [`em`] the one-sided one (Dewaele et al. 2006, eq. 17) over the [`candidates`]
+//! found in a grid; [`posterior`] holds what every one-sided E-step shares, the Gaussian
+//! kernel and the normalisation against the outlier class (the surface tracker's E-step uses
+//! it too).
 
 pub mod candidates;
 pub mod em;

@@ -23,11 +23,11 @@ pub(super) const MAX_SLOTS: usize = MAX_NEAREST;
 /// Each point's candidates, kept between the E-steps of one frame: the nearest few hypotheses
 /// (blend entries: vertex `v` predicted by patch `l`) within the cutoff. The first E-step on a
 /// frame searches a kd-tree for every point; the next ones search again only the points whose
-/// listed vertices' hypotheses (or their neighbours') moved by more than [`REUSE_DRIFT`] of an
-/// edge since their search (most of the mesh settles within a few iterations). A point with
-/// no candidates is searched again only when the mesh may have come within its cutoff: its
-/// list was complete within `cover` when searched, and no hypothesis has moved more than the
-/// drift summed since. Points are visited in a spatial (Morton) order, so that neighbouring
+/// listed vertices' hypotheses (or their neighbours') moved by more than a quarter of an edge
+/// (`REUSE_DRIFT`) since their search (most of the mesh settles within a few iterations). A
+/// point with no candidates is searched again only when the mesh may have come within its
+/// cutoff: its list was complete within `cover` when searched, and no hypothesis has moved
+/// more than the drift summed since. Points are visited in a spatial (Morton) order, so that neighbouring
 /// points read neighbouring memory.
 ///
 /// A thinned E-step ([`EStepCache::set_stride`]) uses the points at ranks `0, s, 2s, ...` of
