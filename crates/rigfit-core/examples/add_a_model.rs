@@ -12,7 +12,7 @@ use rigfit_core::engine::fitting_loop::{
     EmModel, Expectation, Maximisation, Schedule, Stage, Widths, run_em,
 };
 use rigfit_core::engine::{
-    EmStep, NormalEquations, PointGrid, WeightedPoints, em::DEWAELE_OUTLIER_CONSTANT, em_step,
+    DEWAELE_OUTLIER_CONSTANT, EmStep, NormalEquations, PointGrid, WeightedPoints, em_step,
 };
 use rigfit_core::math::{Point3, Quat, Vector3};
 

@@ -2,31 +2,42 @@
 //! points and model points with an outlier class, annealed, alternated with a
 //! Gauss-Newton / Levenberg-Marquardt fit of the model's parameters.
 //!
-//! A model only has to say where its points are and how they move with its parameters
-//! (a [`crate::kinematics::ForwardKinematics`] for skeletons); the strategies here turn
-//! (data, model points, temperature) into sparse weights, and [`normal_equations`] turns
-//! weighted residuals into a parameter step. For skeletons, [`subtree_moments`] sums the
-//! points' normal equations in closed form per joint subtree, and
-//! [`skeleton_normal_equations`] solves them by the articulated-body recursion
-//! ([`articulated`]) or without fill-in ([`tree_solver`]). [`em`] is the one-sided
-//! strategy (Dewaele et al. 2006: each data point's posteriors over model points plus a
-//! uniform outlier class), on the fixed-radius queries of [`point_grid`].
+//! A model only has to say where its points are and how they move with its parameters; the
+//! engine's rooms hold the rest:
+//! - [`correspondence`]: softassign (two-sided), EM posteriors with the outlier class
+//!   (one-sided: the Gaussian kernel and the normalisation every E-step shares), the
+//!   candidate lists the E-steps reuse;
+//! - [`spatial`]: the spatial indices, the grid and the kd-trees side by side;
+//! - [`linear_algebra`]: the normal equations behind [`NormalSink`], dense and block-sparse
+//!   (with the sparse Cholesky factorisation);
+//! - [`skeleton`]: the skeleton-only sums and storages (subtree moments, the articulated-body
+//!   recursion, the tree solver).
 
-pub mod articulated;
-pub mod em;
+pub mod correspondence;
 pub mod fitting_loop;
-pub mod normal_equations;
-pub mod point_grid;
-pub mod skeleton_normal_equations;
-pub mod softassign;
-pub mod subtree_moments;
-pub mod tree_solver;
+pub mod linear_algebra;
+pub mod skeleton;
+pub mod spatial;
 
-pub use articulated::ArticulatedNormalEquations;
-pub use em::{Candidates, EmStep, WeightedPoints, candidate_radius, em_step, em_step_with};
-pub use normal_equations::{NormalEquations, NormalSink};
-pub use point_grid::{PointGrid, voxel_subsample};
-pub use skeleton_normal_equations::SkeletonNormalEquations;
-pub use softassign::{MatchMatrix, SoftassignParams, softassign};
-pub use subtree_moments::SubtreeMoments;
-pub use tree_solver::TreeNormalEquations;
+pub use correspondence::{
+    Candidates, DEWAELE_OUTLIER_CONSTANT, EmStep, Evidence, GaussianKernel, MatchMatrix,
+    SoftassignParams, WeightedPoints, candidate_radius, em_step, em_step_with, exp_negative,
+    softassign,
+};
+pub use linear_algebra::{
+    Block6, BlockPattern, BlockPosition, BlockSparseNormalEquations, NormalEquations, NormalSink,
+    SolveError, SparseCholesky,
+};
+pub use skeleton::{
+    ArticulatedNormalEquations, SkeletonNormalEquations, SubtreeMoments, TreeNormalEquations,
+};
+pub use spatial::{NearTree, NearestFew, PointGrid, PointTree, morton_order, voxel_subsample};
+
+// The module paths before the engine's rooms (`crate::engine::em`, ...), kept for the code
+// written against them.
+#[doc(hidden)]
+pub use correspondence::em;
+#[doc(hidden)]
+pub use linear_algebra::normal_equations;
+#[doc(hidden)]
+pub use spatial::grid as point_grid;

@@ -5,6 +5,12 @@
 //! class ([`estep`]), then one Gauss-Newton step on the data term plus the rigidity energy
 //! ([`solve`]). Each frame starts from the previous one's result.
 //!
+//! What is not particular to patches is the engine's: the posteriors' Gaussian kernel and
+//! normalisation against the outlier class ([`crate::engine::correspondence::posterior`]),
+//! the kd-trees and the Morton order ([`crate::engine::spatial`]), and the block-sparse
+//! normal equations with their sparse Cholesky factorisation
+//! ([`crate::engine::linear_algebra`]), into which [`solve`] assembles the patches' terms.
+//!
 //! The ground-truth scan sequences of the tests and benches are rigfit-testkit's
 //! (`surface_cases`); `test_meshes` (core's own tests, and rigfit-testkit through the
 //! `test-meshes` feature) holds the torus they share.
@@ -13,9 +19,7 @@ pub mod bounds;
 pub mod estep;
 mod frame;
 pub mod model;
-pub mod nearest;
 pub mod patches;
-pub mod point_tree;
 pub mod solve;
 #[cfg(any(test, feature = "test-meshes"))]
 pub mod test_meshes;

@@ -144,7 +144,7 @@ impl PatchModel {
                 .iter()
                 .map(|&v| [rest[v].x, rest[v].y, rest[v].z])
                 .collect();
-            let tree = super::point_tree::PointTree::new(&points);
+            let tree = crate::engine::spatial::PointTree::new(&points);
             for v in 0..rest.len() {
                 if vertex_patch[v] == u32::MAX {
                     let nearest = tree.nearest(&rest[v]);
@@ -430,7 +430,7 @@ fn attach_small_components(
         return;
     }
     let coords: Vec<[f64; 3]> = rest.iter().map(|p| [p.x, p.y, p.z]).collect();
-    let tree = super::point_tree::PointTree::new(&coords);
+    let tree = crate::engine::spatial::PointTree::new(&coords);
     for k in 0..patch_count {
         if patches_of[&component[k]].len() != 1 {
             continue;

@@ -4,11 +4,11 @@
 
 use super::m_step::Pull;
 use super::{FrameFit, TextureSource, TrackError, Tracker};
-use crate::engine::em::{WeightedPoints, candidate_radius, em_step, em_step_with};
 use crate::engine::fitting_loop::{
     EmModel, Expectation, Maximisation, Schedule, Stage, Widths, continued_trs, run_em,
 };
-use crate::engine::point_grid::voxel_subsample;
+use crate::engine::voxel_subsample;
+use crate::engine::{WeightedPoints, candidate_radius, em_step, em_step_with};
 use crate::kinematics::ForwardKinematics;
 use crate::math::Point3;
 use crate::skeleton::Pose;

@@ -1,7 +1,7 @@
 //! Articulated tracking in 3D point clouds (Dewaele et al. 2006): an articulated surface
 //! model ([`parts`]: ellipsoids fused into one surface; [`texture`]: model points carried by
 //! blends of adjacent parts' motions, eq. 3), aligned to each frame's points by EM with a
-//! uniform outlier class ([`crate::engine::em`], eq. 17) and Gauss-Newton / Levenberg-
+//! uniform outlier class ([`crate::engine::correspondence::em`], eq. 17) and Gauss-Newton / Levenberg-
 //! Marquardt on eq. (20), with `sigma` annealed geometrically; then a surface-fitting pass
 //! (eq. 21-22). [`Tracker`] runs it frame after frame from the previous pose.
 //!
@@ -19,9 +19,7 @@ mod refine;
 pub mod texture;
 mod tracker;
 
-use crate::engine::em::{Candidates, EmStep};
-use crate::engine::point_grid::PointGrid;
-use crate::engine::{SkeletonNormalEquations, SubtreeMoments};
+use crate::engine::{Candidates, EmStep, PointGrid, SkeletonNormalEquations, SubtreeMoments};
 use crate::kinematics::DofLayout;
 use crate::math::{Point3, Vector3};
 use crate::skeleton::{Pose, Skeleton};

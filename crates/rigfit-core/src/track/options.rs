@@ -1,7 +1,7 @@
 //! The tracker's settings: the method as published ([`TrackOptions::paper`]) and the
 //! default with prediction, coarse-to-fine matching and texture kept on the model.
 
-use crate::engine::em::DEWAELE_OUTLIER_CONSTANT;
+use crate::engine::DEWAELE_OUTLIER_CONSTANT;
 
 /// Where the texture points come from after each frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

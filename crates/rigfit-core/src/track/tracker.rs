@@ -4,9 +4,7 @@
 use super::parts::PlacedParts;
 use super::texture::TexturePoint;
 use super::{ArticulatedModel, TrackError, TrackOptions, Tracker};
-use crate::engine::SubtreeMoments;
-use crate::engine::em::{Candidates, EmStep};
-use crate::engine::point_grid::PointGrid;
+use crate::engine::{Candidates, EmStep, PointGrid, SubtreeMoments};
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::Point3;
 use crate::skeleton::Pose;

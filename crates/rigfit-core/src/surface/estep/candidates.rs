@@ -1,32 +1,33 @@
 //! Each point's candidate hypotheses and the cache that keeps them between the E-steps of a
 //! frame ([`EStepCache`]): the points in Morton order, the drift of the hypotheses since each
-//! list was searched, and the kd-tree search ([`crate::surface::nearest`]) of the lists that
+//! list was searched, and the kd-tree search ([`NearTree`]) of the lists that
 //! drifted.
 
 use rayon::prelude::*;
 
 use super::Observations;
-use super::hypotheses::{Hypotheses, distance2, to_local};
-use crate::geometry::Aabb;
+use super::hypotheses::Hypotheses;
+use crate::engine::spatial::{
+    MAX_NEAREST, NearTree, NearestFew, distance2, morton_order, to_local,
+};
 use crate::math::Point3;
 use crate::surface::model::{PatchModel, Predictions};
-use crate::surface::nearest::{NearTree, NearestFew};
 
 /// A point's list is searched again once the hypotheses of its listed vertices, or of their
 /// neighbours, moved by this fraction of a mean edge since it was searched.
 const REUSE_DRIFT: f64 = 0.25;
 
 /// The most candidates a point keeps (`DataTermOptions::max_candidates` is clamped to it).
-pub(super) const MAX_SLOTS: usize = crate::surface::nearest::MAX_NEAREST;
+pub(super) const MAX_SLOTS: usize = MAX_NEAREST;
 
 /// Each point's candidates, kept between the E-steps of one frame: the nearest few hypotheses
 /// (blend entries: vertex `v` predicted by patch `l`) within the cutoff. The first E-step on a
 /// frame searches a kd-tree for every point; the next ones search again only the points whose
-/// listed vertices' hypotheses (or their neighbours') moved by more than [`REUSE_DRIFT`] of an
-/// edge since their search (most of the mesh settles within a few iterations). A point with
-/// no candidates is searched again only when the mesh may have come within its cutoff: its
-/// list was complete within `cover` when searched, and no hypothesis has moved more than the
-/// drift summed since. Points are visited in a spatial (Morton) order, so that neighbouring
+/// listed vertices' hypotheses (or their neighbours') moved by more than a quarter of an edge
+/// (`REUSE_DRIFT`) since their search (most of the mesh settles within a few iterations). A
+/// point with no candidates is searched again only when the mesh may have come within its
+/// cutoff: its list was complete within `cover` when searched, and no hypothesis has moved
+/// more than the drift summed since. Points are visited in a spatial (Morton) order, so that neighbouring
 /// points read neighbouring memory.
 ///
 /// A thinned E-step ([`EStepCache::set_stride`]) uses the points at ranks `0, s, 2s, ...` of
@@ -311,34 +312,6 @@ impl EStepCache {
     }
 }
 
-/// The points' indices sorted along a Morton (Z-order) curve over their bounding box.
-fn morton_order(points: &[Point3]) -> Vec<u32> {
-    let Some(bounds) = Aabb::from_points(points) else {
-        return Vec::new();
-    };
-    let extent = bounds.extent();
-    let scale = 1023.0 / extent.x.max(extent.y).max(extent.z).max(1e-300);
-    // Spreads the low 10 bits of `x` to every third bit.
-    let spread = |x: u64| {
-        let mut x = x & 0x3ff;
-        x = (x | (x << 16)) & 0x0300_00ff;
-        x = (x | (x << 8)) & 0x0300_f00f;
-        x = (x | (x << 4)) & 0x030c_30c3;
-        (x | (x << 2)) & 0x0924_9249
-    };
-    let mut keyed: Vec<(u64, u32)> = points
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let q = (p - bounds.min) * scale;
-            let code = spread(q.x as u64) | (spread(q.y as u64) << 1) | (spread(q.z as u64) << 2);
-            (code, i as u32)
-        })
-        .collect();
-    keyed.sort_unstable();
-    keyed.into_iter().map(|(_, i)| i).collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -428,21 +401,5 @@ mod tests {
         for (a, b) in full.weight.iter().zip(&fresh.weight) {
             assert!((a - b).abs() < 1e-9 * (1.0 + b), "{a} against {b}");
         }
-    }
-
-    #[test]
-    fn morton_order_is_a_permutation_that_keeps_neighbours_close() {
-        let points: Vec<Point3> = (0..1000)
-            .map(|i| Point3::new((i % 10) as f64, ((i / 10) % 10) as f64, (i / 100) as f64))
-            .collect();
-        let mut order = morton_order(&points);
-        let steps: f64 = order
-            .windows(2)
-            .map(|w| (points[w[0] as usize] - points[w[1] as usize]).norm())
-            .sum();
-        // A random order would step about 5 units on average.
-        assert!(steps / 999.0 < 2.0, "{}", steps / 999.0);
-        order.sort_unstable();
-        assert!(order.iter().enumerate().all(|(i, &o)| o as usize == i));
     }
 }

@@ -4,6 +4,7 @@
 
 use rayon::prelude::*;
 
+use crate::engine::spatial::to_local;
 use crate::math::Point3;
 use crate::surface::model::{PatchModel, Predictions};
 
@@ -68,21 +69,4 @@ impl Hypotheses {
             local,
         }
     }
-}
-
-/// Squared distance in single precision.
-#[inline]
-pub(super) fn distance2(a: &[f32; 3], b: &[f32; 3]) -> f32 {
-    let (dx, dy, dz) = (a[0] - b[0], a[1] - b[1], a[2] - b[2]);
-    dx * dx + dy * dy + dz * dz
-}
-
-/// `p - origin` in single precision.
-#[inline]
-pub(in crate::surface) fn to_local(p: &Point3, origin: &Point3) -> [f32; 3] {
-    [
-        (p.x - origin.x) as f32,
-        (p.y - origin.y) as f32,
-        (p.z - origin.z) as f32,
-    ]
 }

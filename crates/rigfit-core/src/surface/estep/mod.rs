@@ -5,9 +5,10 @@
 //! predictions of `P_k` and of its neighbours (the multi-hypothesis mechanism, fig. 1).
 //!
 //! Each point keeps a list of its nearest few predictions within a cutoff of a few `sigma`,
-//! found in a kd-tree ([`super::nearest`]) on a frame's first E-step and searched again only
-//! where the mesh around the listed vertices has moved ([`EStepCache`]). The cost is linear in the number of points and no
-//! points-by-patches matrix is ever formed. Posteriors (eq. 8) are collapsed per vertex into
+//! found in the engine's kd-tree ([`crate::engine::spatial::NearTree`]) on a frame's first
+//! E-step and searched again only where the mesh around the listed vertices has moved
+//! ([`EStepCache`]). The cost is linear in the number of points and no points-by-patches
+//! matrix is ever formed. Posteriors (eq. 8) are collapsed per vertex into
 //! the sums the M-step needs.
 //!
 //! `observations` holds a frame's points and normals, `hypotheses` the predictions of a pose
@@ -20,7 +21,6 @@ mod observations;
 mod posteriors;
 
 pub use candidates::EStepCache;
-pub(in crate::surface) use hypotheses::to_local;
 pub use observations::{Observations, estimate_normals};
 pub use posteriors::VertexTargets;
 

@@ -3,9 +3,9 @@
 
 use rayon::prelude::*;
 
+use crate::engine::spatial::PointTree;
 use crate::geometry::Aabb;
 use crate::math::{Matrix3, Point3, Vector3};
-use crate::surface::point_tree::PointTree;
 
 /// Normals of a point cloud by principal component analysis of each point's `k` nearest
 /// neighbours. Their sign is unknown (see [`Observations::oriented`]).

@@ -6,8 +6,10 @@
 use rayon::prelude::*;
 
 use super::candidates::{ActiveRanks, EStepCache, MAX_SLOTS};
-use super::hypotheses::{Hypotheses, distance2, to_local};
+use super::hypotheses::Hypotheses;
 use super::{DataTermOptions, Observations};
+use crate::engine::correspondence::{Evidence, GaussianKernel};
+use crate::engine::spatial::{distance2, to_local};
 use crate::geometry::Aabb;
 use crate::math::{Point3, Vector3};
 use crate::surface::model::PatchModel;
@@ -82,8 +84,8 @@ pub(super) struct Mixture {
     outlier_density: f64,
     /// The Gaussian's normalisation, `(2 pi sigma^2)^(-3/2)`.
     gauss_norm: f64,
-    /// `2 sigma^2`.
-    two_sigma2: f64,
+    /// The Gaussian's kernel (eq. 7).
+    kernel: GaussianKernel,
     /// Normals are compatible when their cosine is at least this.
     cos_limit: f32,
     /// Hypotheses farther than the cutoff (this squared) are neglected.
@@ -131,12 +133,11 @@ impl Mixture {
         let cos_limit = options.normal_angle.to_radians().cos() as f32;
         let cut2_single = cut2 as f32;
 
-        let two_sigma2 = 2.0 * sigma * sigma;
         Self {
             patch_prior,
             outlier_density,
             gauss_norm,
-            two_sigma2,
+            kernel: GaussianKernel::new(sigma),
             cos_limit,
             cut2: cut2_single,
         }
@@ -293,18 +294,17 @@ fn add_posteriors(
 ) {
     // Eq. 8: prior times Gaussian (eq. 7), over the sum with the outlier term; the
     // component is centred on the deformed vertex.
-    let mut total = mixture.outlier_density;
+    let mut evidence = Evidence::starting_at(mixture.outlier_density);
     for (f, l) in found.iter().zip(likelihood.iter_mut()) {
         let d2 = (y - positions[f.vertex as usize]).norm_squared();
-        let p = mixture.patch_prior[f.patch as usize]
-            * mixture.gauss_norm
-            * (-d2 / mixture.two_sigma2).exp();
-        total += p;
+        let p =
+            mixture.patch_prior[f.patch as usize] * mixture.gauss_norm * mixture.kernel.exact(d2);
+        evidence.add(p);
         *l = Likelihood { d2, p };
     }
     let (square, mut inlier_mass) = (y.coords.norm_squared(), 0.0);
     for (f, l) in found.iter().zip(likelihood.iter()) {
-        let w = l.p / total;
+        let w = evidence.posterior(l.p);
         if w > 1e-8 {
             inlier_mass += w;
             // A merged or thinned point counts as the points it stands for.

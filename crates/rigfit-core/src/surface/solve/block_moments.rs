@@ -3,7 +3,7 @@
 //! by vertex (`J^T J` for `J = [-[q]x, I]`), for the rigidity term (eq. 4) and the isotropic
 //! part of the data term, and the data term's part along the normal.
 
-use super::Block;
+use crate::engine::linear_algebra::Block6;
 use crate::math::{Matrix3, Vector3, skew};
 use crate::surface::model::PatchModel;
 
@@ -57,7 +57,7 @@ impl OffsetMoments {
     /// `J_a^T J_b = [[-[q_a]x [q_b]x, [q_a]x], [-[q_b]x, I]]` and
     /// `-[q_a]x [q_b]x = (q_a . q_b) I - q_b q_a^T`.
     #[inline]
-    pub(super) fn add_to_block(&self, block: &mut Block, scale: f64, ra: &Matrix3, rb: &Matrix3) {
+    pub(super) fn add_to_block(&self, block: &mut Block6, scale: f64, ra: &Matrix3, rb: &Matrix3) {
         let (ma, mb, s) = self.rotated(ra, rb);
         add_jtj_sums(block, scale, self.weight, &ma, &mb, &s);
     }
@@ -68,7 +68,7 @@ impl OffsetMoments {
 /// `S = sum beta q_a q_b^T`.
 #[inline]
 fn add_jtj_sums(
-    block: &mut Block,
+    block: &mut Block6,
     scale: f64,
     weight: f64,
     ma: &Vector3,
@@ -216,7 +216,7 @@ impl OwnBlockSums {
     }
 
     /// Adds the sums to the block of a patch with rotation `r`.
-    pub(super) fn add_to_block(&self, block: &mut Block, r: &Matrix3) {
+    pub(super) fn add_to_block(&self, block: &mut Block6, r: &Matrix3) {
         self.isotropic
             .offset_moments(&Vector3::zeros())
             .add_to_block(block, 1.0, r, r);
@@ -260,7 +260,7 @@ impl PairBlockSums {
     /// `delta = c_a^0 - c_b^0`.
     pub(super) fn add_to_block(
         &self,
-        block: &mut Block,
+        block: &mut Block6,
         ra: &Matrix3,
         rb: &Matrix3,
         delta: &Vector3,

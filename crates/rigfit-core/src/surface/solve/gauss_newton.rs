@@ -1,12 +1,15 @@
 //! One Gauss-Newton step of the M-step (eq. 15): the data term collapsed per vertex and the
-//! rigidity energy (eq. 4) assembled into the block normal equations from their moments,
-//! damped, solved, and applied to the patches' rotations and centres.
+//! rigidity energy (eq. 4) assembled from their moments into the engine's block-sparse
+//! normal equations (a [`NormalSink`]), damped, solved, and applied to the patches'
+//! rotations and centres.
 
 use rayon::prelude::*;
 
-use super::block_moments::{OwnBlockSums, PairBlockSums, add_jtr, add_slices, cross_sum};
+use super::block_moments::{
+    OffsetMoments, OwnBlockSums, PairBlockSums, add_jtr, add_slices, cross_sum,
+};
 use super::patch_system::PatchSystem;
-use super::{Block, SolveError};
+use crate::engine::linear_algebra::{Block6, BlockSparseNormalEquations, NormalSink, SolveError};
 use crate::math::{Matrix3, Point3, Vector3, exp_rotation};
 use crate::surface::estep::VertexTargets;
 use crate::surface::model::{PatchModel, PatchPose};
@@ -105,25 +108,27 @@ impl DataSums {
         add_slices(&mut self.gradient, &other.gradient);
     }
 
-    /// Adds the sums, rotated by the pose, to their blocks.
-    fn add_to_blocks(
+    /// Adds the sums, rotated by the pose, to their blocks, and the gradient.
+    fn add_to(
         &self,
         model: &PatchModel,
         system: &PatchSystem,
         pose: &PatchPose,
-        blocks: &mut [Block],
+        sink: &mut impl NormalSink,
     ) {
-        for (block, (sum, &(a, b))) in blocks
-            .iter_mut()
-            .zip(self.pair.iter().zip(&system.block_patches))
-        {
-            let (a, b) = (a as usize, b as usize);
+        for (sum, position) in self.pair.iter().zip(system.pattern.block_pairs()) {
+            let (a, b) = (position.row as usize, position.column as usize);
+            let mut block = [0.0; 36];
             if a == b {
-                self.own[a].add_to_block(block, &pose.rotation[a]);
+                self.own[a].add_to_block(&mut block, &pose.rotation[a]);
             } else {
                 let delta = model.rest_centre[a] - model.rest_centre[b];
-                sum.add_to_block(block, &pose.rotation[a], &pose.rotation[b], &delta);
+                sum.add_to_block(&mut block, &pose.rotation[a], &pose.rotation[b], &delta);
             }
+            sink.add_jtj_block6(6 * a, 6 * b, &block);
+        }
+        for (i, &g) in self.gradient.iter().enumerate() {
+            sink.add_jtr(i, g);
         }
     }
 }
@@ -198,7 +203,7 @@ fn data_sums(
     total
 }
 
-/// Adds the rigidity term's normal equations (eq. 4) to `blocks` and `gradient`: residual
+/// Adds the rigidity term's normal equations (eq. 4) to `sink`: residual
 /// x_k(v) - x_l(v) over v in P_k and P_l, weight alpha_k(v) + alpha_l(v); the Jacobian is
 /// J_k(v) for patch k and -J_l(v) for patch l. From the pair's rest-frame moments: with
 /// d = c_k - c_l and r = d + q_k - q_l, sum beta q_k x r = m_k x d - X and
@@ -207,27 +212,32 @@ fn add_rigidity(
     system: &PatchSystem,
     pose: &PatchPose,
     weights: &StepWeights,
-    blocks: &mut [Block],
-    gradient: &mut [f64],
+    sink: &mut impl NormalSink,
 ) {
     for pair in &system.rigidity_pairs {
-        let (k, l, ids, moments) = (pair.k, pair.l, &pair.blocks, &pair.moments);
+        let (k, l, moments) = (pair.k, pair.l, &pair.moments);
         let (rk, rl) = (&pose.rotation[k], &pose.rotation[l]);
         let w = weights.rigidity;
-        moments[0].add_to_block(&mut blocks[ids[0] as usize], w, rk, rk);
-        moments[1].add_to_block(&mut blocks[ids[1] as usize], w, rl, rl);
-        moments[2].add_to_block(&mut blocks[ids[2] as usize], -w, rk, rl);
+        let block = |scale: f64, moments: &OffsetMoments, ra: &Matrix3, rb: &Matrix3| {
+            let mut block: Block6 = [0.0; 36];
+            moments.add_to_block(&mut block, scale, ra, rb);
+            block
+        };
+        sink.add_jtj_block6(6 * k, 6 * k, &block(w, &moments[0], rk, rk));
+        sink.add_jtj_block6(6 * l, 6 * l, &block(w, &moments[1], rl, rl));
+        sink.add_jtj_block6(6 * k, 6 * l, &block(-w, &moments[2], rk, rl));
         let (mk, ml, s) = moments[2].rotated(rk, rl);
         let crossed = cross_sum(&s);
         let d = pose.centre[k] - pose.centre[l];
         let residual_sum = d * moments[2].weight + mk - ml;
         let top_k = mk.cross(&d) - crossed;
         let top_l = ml.cross(&d) - crossed;
+        // `g - x` is `g + (-x)` to the bit.
         for i in 0..3 {
-            gradient[6 * k + i] += w * top_k[i];
-            gradient[6 * k + 3 + i] += w * residual_sum[i];
-            gradient[6 * l + i] -= w * top_l[i];
-            gradient[6 * l + 3 + i] -= w * residual_sum[i];
+            sink.add_jtr(6 * k + i, w * top_k[i]);
+            sink.add_jtr(6 * k + 3 + i, w * residual_sum[i]);
+            sink.add_jtr(6 * l + i, -(w * top_l[i]));
+            sink.add_jtr(6 * l + 3 + i, -(w * residual_sum[i]));
         }
     }
 }
@@ -243,36 +253,25 @@ pub fn gauss_newton_step(
     targets: &VertexTargets,
     weights: &StepWeights,
 ) -> Result<(), SolveError> {
-    let mut blocks = vec![[0.0; 36]; system.block_count()];
+    let mut equations = system.pattern.equations();
 
     // Data term, vertex by vertex: residual x(v) - ybar_v with weight W_v; the Jacobian of
     // x(v) is sum_k alpha_k(v) J_k(v) (eq. 2).
     let data_terms = data_terms(positions, normals, targets, weights);
     let sums = data_sums(model, system, pose, &data_terms, weights);
-    sums.add_to_blocks(model, system, pose, &mut blocks);
-    let mut gradient = sums.gradient;
+    sums.add_to(model, system, pose, &mut equations);
 
-    add_rigidity(system, pose, weights, &mut blocks, &mut gradient);
+    add_rigidity(system, pose, weights, &mut equations);
 
-    damp_solve_and_apply(
-        model,
-        system,
-        pose,
-        &mut blocks,
-        &gradient,
-        targets,
-        weights,
-    )
+    damp_solve_and_apply(model, pose, &mut equations, targets, weights)
 }
 
 /// Adds the damping to the assembled normal equations, solves them and applies the step
 /// (rotation increments and centre shifts) to `pose`.
 pub(super) fn damp_solve_and_apply(
     model: &PatchModel,
-    system: &PatchSystem,
     pose: &mut PatchPose,
-    blocks: &mut [Block],
-    gradient: &[f64],
+    equations: &mut BlockSparseNormalEquations<'_>,
     targets: &VertexTargets,
     weights: &StepWeights,
 ) -> Result<(), SolveError> {
@@ -280,15 +279,9 @@ pub(super) fn damp_solve_and_apply(
     // Damping: relative (Levenberg-Marquardt) plus a floor so that patches with no data and
     // no neighbours (a lone object out of view) stay put instead of making H singular.
     // Rotation entries scale with length^2: the floor compares them at the model's size.
-    let diagonal_block = |k: usize| {
-        let slot = system.column_rows[k]
-            .binary_search(&(k as u32))
-            .expect("every column holds its diagonal block");
-        system.column_offset[k] + slot
-    };
     let max_translation = (0..n)
         .flat_map(|k| (3..6).map(move |i| (k, i)))
-        .map(|(k, i)| blocks[diagonal_block(k)][7 * i])
+        .map(|(k, i)| equations.diagonal_block(k)[7 * i])
         .fold(0.0, f64::max)
         .max(1e-300);
     // A weak prior to stay put, worth about `damping` of an average patch's data, so that a
@@ -297,7 +290,7 @@ pub(super) fn damp_solve_and_apply(
     let floor_translation = 1e-9 * max_translation + weights.damping * data_weight / n as f64;
     let floor_rotation = floor_translation * model.diagonal * model.diagonal;
     for k in 0..n {
-        let block = &mut blocks[diagonal_block(k)];
+        let block = equations.diagonal_block_mut(k);
         for i in 0..6 {
             let floor = if i < 3 {
                 floor_rotation
@@ -308,8 +301,7 @@ pub(super) fn damp_solve_and_apply(
         }
     }
 
-    let mut rhs: Vec<f64> = gradient.iter().map(|g| -g).collect();
-    system.solve(blocks, &mut rhs)?;
+    let mut rhs = equations.solve()?;
     for x in &mut rhs {
         *x *= weights.relaxation;
     }

@@ -6,26 +6,18 @@
 //! never changes, so its fill-reducing order and symbolic Cholesky factorisation are computed
 //! once and reused, and the values are gathered straight into the permuted matrix.
 //!
-//! `patch_system` holds the block pattern and the fixed weights of each block,
-//! `sparse_cholesky` the scalar pattern and its factorisation (faer), `block_moments` the
-//! sums the blocks are assembled from, and `gauss_newton` the step itself.
+//! The storage, the pattern's factorisation and the solve are the engine's
+//! ([`crate::engine::linear_algebra::block_sparse`], one more [`crate::engine::NormalSink`]);
+//! the patch-specific assembly is here: `patch_system` holds the patch graph's pattern and
+//! the fixed weights of each block, `block_moments` the sums the blocks are assembled from,
+//! and `gauss_newton` the step itself.
 
 mod block_moments;
 mod gauss_newton;
 mod patch_system;
 #[cfg(test)]
 mod reference;
-mod sparse_cholesky;
 
+pub use crate::engine::linear_algebra::SolveError;
 pub use gauss_newton::{StepWeights, gauss_newton_step};
 pub use patch_system::PatchSystem;
-
-/// A 6x6 block, row-major.
-type Block = [f64; 36];
-
-/// Problems of the linear solve.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum SolveError {
-    #[error("the normal equations could not be factorised")]
-    Factorisation,
-}

@@ -3,8 +3,7 @@
 //! diagonal, and the rest-frame moments of the rigidity term (eq. 4).
 
 use super::block_moments::{OffsetMoments, rigidity_pair_moments};
-use super::sparse_cholesky::SparseCholesky;
-use super::{Block, SolveError};
+use crate::engine::linear_algebra::{BlockPattern, SolveError};
 use crate::surface::model::PatchModel;
 
 /// Pairs of blended patches whose share of a vertex's data term is at most this
@@ -33,26 +32,22 @@ pub(super) struct BlendPair {
     pub(super) weight: f64,
 }
 
-/// The rigidity term (eq. 4) of neighbouring patches `k < l`: its blocks `(k,k)`, `(l,l)`,
-/// `(k,l)` and the rest-frame moments for each.
+/// The rigidity term (eq. 4) of neighbouring patches `k < l`: the rest-frame moments of its
+/// blocks `(k,k)`, `(l,l)` and `(k,l)`.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RigidityPair {
     pub(super) k: usize,
     pub(super) l: usize,
-    pub(super) blocks: [u32; 3],
     pub(super) moments: [OffsetMoments; 3],
 }
 
-/// The block pattern of the normal equations and its reusable symbolic factorisation.
+/// The M-step's block-sparse normal equations for one patch model: the block pattern (the
+/// patch graph, with its reusable symbolic factorisation) and the weights of each block the
+/// model fixes.
 #[derive(Clone, Debug)]
 pub struct PatchSystem {
-    pub(super) patch_count: usize,
-    /// For each block column `l`, the block rows `k <= l` present (sorted).
-    pub(super) column_rows: Vec<Vec<u32>>,
-    /// Offset of column `l`'s first block in `blocks`.
-    pub(super) column_offset: Vec<usize>,
-    /// The patches `(k, l)`, `k <= l`, of every block.
-    pub(super) block_patches: Vec<(u32, u32)>,
+    /// Block `(k, l)` couples patches `k` and `l` (six unknowns each).
+    pub(super) pattern: BlockPattern,
     /// The data term's normal equations, per blend entry `(v, a)`: the block `(a, a)` and its
     /// weight. A vertex's Jacobian sums its blended patches' (eq. 2), so its term couples
     /// every pair of them; the cross term of a pair that is not neighbouring patches (or
@@ -66,50 +61,22 @@ pub struct PatchSystem {
     /// (see [`BlendPair`]).
     pair_start: Vec<u32>,
     pairs: Vec<BlendPair>,
-    /// For each neighbouring pair `(k, l)`: blocks `(k,k)`, `(l,l)`, `(min,max)`, and the
-    /// rest-frame moments of its rigidity term (eq. 4) for those blocks: the weights
+    /// For each neighbouring pair `(k, l)`: the rest-frame moments of its rigidity term
+    /// (eq. 4) for the blocks `(k,k)`, `(l,l)` and `(k,l)`: the weights
     /// `alpha_k(v) + alpha_l(v)` never change, so the term's normal equations cost O(1) per
     /// pair instead of O(vertices).
     pub(super) rigidity_pairs: Vec<RigidityPair>,
-    /// The scalar pattern's fill-reducing order and factorisation.
-    cholesky: SparseCholesky,
 }
 
 impl PatchSystem {
     pub fn new(model: &PatchModel) -> Result<Self, SolveError> {
-        let n = model.patch_count();
-        let mut column_rows: Vec<Vec<u32>> = (0..n).map(|l| vec![l as u32]).collect();
-        let mut add = |a: usize, b: usize| {
-            let (k, l) = if a <= b { (a, b) } else { (b, a) };
-            column_rows[l].push(k as u32);
-        };
         // The pattern is the patch graph: blend pairs that are not neighbours are majorised
         // onto the diagonal (see `diagonal`), so they add no fill.
-        for (k, l) in model.neighbour_pairs() {
-            add(k, l);
-        }
-        for rows in &mut column_rows {
-            rows.sort_unstable();
-            rows.dedup();
-        }
-        let mut column_offset = Vec::with_capacity(n + 1);
-        let mut total = 0;
-        for rows in &column_rows {
-            column_offset.push(total);
-            total += rows.len();
-        }
-        column_offset.push(total);
-        let block_patches = column_rows
-            .iter()
-            .enumerate()
-            .flat_map(|(l, rows)| rows.iter().map(move |&k| (k, l as u32)))
-            .collect();
-        let block_of = |column_rows: &[Vec<u32>], a: usize, b: usize| -> u32 {
-            let (k, l) = if a <= b { (a, b) } else { (b, a) };
-            let slot = column_rows[l]
-                .binary_search(&(k as u32))
-                .expect("every pair is in the pattern");
-            (column_offset[l] + slot) as u32
+        let pattern = BlockPattern::new(model.patch_count(), model.neighbour_pairs())?;
+        let block_of = |a: usize, b: usize| -> u32 {
+            pattern
+                .block_index(a, b)
+                .expect("every pair is in the pattern") as u32
         };
         let joined = |a: usize, b: usize| model.neighbours[a].binary_search(&(b as u32)).is_ok();
         let mut diagonal = Vec::with_capacity(model.blend_patch.len());
@@ -129,7 +96,7 @@ impl PatchSystem {
                             pairs.push(BlendPair {
                                 first: i as u16,
                                 second: j as u16,
-                                block: block_of(&column_rows, a, b),
+                                block: block_of(a, b),
                                 weight: alpha_a * alpha_b,
                             });
                         }
@@ -138,7 +105,7 @@ impl PatchSystem {
                     }
                 }
                 diagonal.push(DiagonalEntry {
-                    block: block_of(&column_rows, a, a),
+                    block: block_of(a, a),
                     weight,
                 });
             }
@@ -150,25 +117,15 @@ impl PatchSystem {
             .map(|(k, l)| RigidityPair {
                 k,
                 l,
-                blocks: [
-                    block_of(&column_rows, k, k),
-                    block_of(&column_rows, l, l),
-                    block_of(&column_rows, k, l),
-                ],
                 moments: rigidity_pair_moments(model, k, l),
             })
             .collect();
-        let cholesky = SparseCholesky::new(&column_rows, &column_offset)?;
         Ok(Self {
-            patch_count: n,
-            column_rows,
-            column_offset,
-            block_patches,
+            pattern,
             diagonal,
             pair_start,
             pairs,
             rigidity_pairs,
-            cholesky,
         })
     }
 
@@ -178,11 +135,6 @@ impl PatchSystem {
     }
 
     pub fn block_count(&self) -> usize {
-        self.column_offset[self.patch_count]
-    }
-
-    /// Solves `H x = rhs` for the assembled blocks (upper triangle read).
-    pub(super) fn solve(&self, blocks: &[Block], rhs: &mut [f64]) -> Result<(), SolveError> {
-        self.cholesky.solve(blocks, rhs)
+        self.pattern.block_count()
     }
 }

@@ -7,14 +7,23 @@ use rayon::prelude::*;
 use super::block_moments::add_jtr;
 use super::gauss_newton::{damp_solve_and_apply, data_terms};
 use super::patch_system::{BlendPair, DiagonalEntry, RigidityPair};
-use super::{Block, PatchSystem, SolveError, StepWeights, gauss_newton_step};
+use super::{PatchSystem, SolveError, StepWeights, gauss_newton_step};
+use crate::engine::linear_algebra::{Block6 as Block, NormalSink};
 use crate::math::{Matrix3, Point3, Vector3, exp_rotation, skew};
 use crate::surface::estep::VertexTargets;
 use crate::surface::model::{PatchModel, PatchOptions, PatchPose};
 use crate::surface::test_meshes::torus;
 use rand::{Rng, SeedableRng};
 
-type PairTerms = (usize, usize, [u32; 3], [Block; 3], [f64; 12]);
+/// The rigidity term of one pair of neighbouring patches `k < l`, summed vertex by vertex:
+/// its blocks `(k,k)`, `(l,l)`, `(k,l)` and its gradient, patch `k`'s then `l`'s.
+struct PairTerms {
+    k: usize,
+    l: usize,
+    blocks: [Block; 3],
+    gradient: [f64; 12],
+}
+
 /// Adds `w * J_a^T J_b` for `J = [-[q]x, I]` (the Jacobian of a prediction with respect to
 /// its patch's rotation increment and centre shift).
 #[inline]
@@ -127,32 +136,45 @@ pub fn reference_step(
     let rigidity: Vec<PairTerms> = system
         .rigidity_pairs
         .par_iter()
-        .map(
-            |&RigidityPair {
-                 k, l, blocks: ids, ..
-             }| {
-                let mut b = [[0.0; 36]; 3];
-                let mut g = [0.0; 12];
-                for &v in model.members[k].iter().chain(&model.members[l]) {
-                    let v = v as usize;
-                    let beta = weights.rigidity * (model.alpha(k, v) + model.alpha(l, v));
-                    let qk = model.offset(pose, k, v);
-                    let ql = model.offset(pose, l, v);
-                    let r = (pose.centre[k] + qk) - (pose.centre[l] + ql);
-                    add_jtj(&mut b[0], beta, &qk, &qk);
-                    add_jtj(&mut b[1], beta, &ql, &ql);
-                    add_jtj(&mut b[2], -beta, &qk, &ql);
-                    add_jtr(&mut g[..6], beta, &qk, &r);
-                    add_jtr(&mut g[6..], -beta, &ql, &r);
-                }
-                (k, l, ids, b, g)
-            },
-        )
+        .map(|&RigidityPair { k, l, .. }| {
+            let mut b = [[0.0; 36]; 3];
+            let mut g = [0.0; 12];
+            for &v in model.members[k].iter().chain(&model.members[l]) {
+                let v = v as usize;
+                let beta = weights.rigidity * (model.alpha(k, v) + model.alpha(l, v));
+                let qk = model.offset(pose, k, v);
+                let ql = model.offset(pose, l, v);
+                let r = (pose.centre[k] + qk) - (pose.centre[l] + ql);
+                add_jtj(&mut b[0], beta, &qk, &qk);
+                add_jtj(&mut b[1], beta, &ql, &ql);
+                add_jtj(&mut b[2], -beta, &qk, &ql);
+                add_jtr(&mut g[..6], beta, &qk, &r);
+                add_jtr(&mut g[6..], -beta, &ql, &r);
+            }
+            PairTerms {
+                k,
+                l,
+                blocks: b,
+                gradient: g,
+            }
+        })
         .collect();
     // Pairs are (k, l) with k < l: the cross block is stored as it is.
-    for (k, l, ids, b, g) in rigidity {
-        for (slot, block) in ids.iter().zip(&b) {
-            for (t, s) in blocks[*slot as usize].iter_mut().zip(block) {
+    for PairTerms {
+        k,
+        l,
+        blocks: b,
+        gradient: g,
+    } in rigidity
+    {
+        let ids = [(k, k), (l, l), (k, l)].map(|(a, c)| {
+            system
+                .pattern
+                .block_index(a, c)
+                .expect("a pair of the pattern")
+        });
+        for (&slot, block) in ids.iter().zip(&b) {
+            for (t, s) in blocks[slot].iter_mut().zip(block) {
                 *t += s;
             }
         }
@@ -162,15 +184,15 @@ pub fn reference_step(
         }
     }
 
-    damp_solve_and_apply(
-        model,
-        system,
-        pose,
-        &mut blocks,
-        &gradient,
-        targets,
-        weights,
-    )
+    let mut equations = system.pattern.equations();
+    for (block, position) in blocks.iter().zip(system.pattern.block_pairs()) {
+        let (a, b) = (position.row as usize, position.column as usize);
+        equations.add_jtj_block6(6 * a, 6 * b, block);
+    }
+    for (i, &g) in gradient.iter().enumerate() {
+        equations.add_jtr(i, g);
+    }
+    damp_solve_and_apply(model, pose, &mut equations, targets, weights)
 }
 
 /// The moment form of the normal equations takes the same step as summing vertex by

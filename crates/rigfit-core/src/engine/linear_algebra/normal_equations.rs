@@ -4,6 +4,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use super::block_sparse::Block6;
 use crate::math::{Matrix3, Vector3};
 
 /// Accumulated `J^T J` (upper triangle, row-major), `J^T r` and the cost `r^T r`.
@@ -71,9 +72,11 @@ impl NormalEquations {
     }
 }
 
-/// Where Gauss-Newton sums go: `J^T W J`, `J^T W r` and the cost `r^T W r`, entry by entry,
-/// so one assembly serves the dense [`NormalEquations`] and the tree-structured
-/// [`crate::engine::TreeNormalEquations`].
+/// Where Gauss-Newton sums go: `J^T W J`, `J^T W r` and the cost `r^T W r`, entry by entry
+/// (or a block at once), so one assembly serves every storage: the dense
+/// [`NormalEquations`], the block-sparse [`crate::engine::BlockSparseNormalEquations`], and
+/// the skeleton's tree-structured [`crate::engine::TreeNormalEquations`] and
+/// [`crate::engine::ArticulatedNormalEquations`].
 pub trait NormalSink {
     /// Adds `v` to the symmetric entry `(i, j)` of `J^T W J` (each unordered pair once).
     fn add_jtj(&mut self, i: usize, j: usize, v: f64);
@@ -98,6 +101,18 @@ pub trait NormalSink {
         for ib in 0..nb {
             for ia in 0..if diagonal { ib + 1 } else { na } {
                 self.add_jtj(b + ib, a + ia, scale * m[(ia, ib)]);
+            }
+        }
+    }
+
+    /// Adds the 6x6 `block` (row-major) to the entries `(row + a, column + b)` of
+    /// `J^T W J`, where the parameter ranges `row..row + 6` and `column..column + 6` are
+    /// the same or disjoint; on the diagonal (`row == column`) only its upper triangle,
+    /// `a <= b`, is read. By default entry by entry; a storage of 6x6 blocks adds it at once.
+    fn add_jtj_block6(&mut self, row: usize, column: usize, block: &Block6) {
+        for a in 0..6 {
+            for b in if row == column { a } else { 0 }..6 {
+                self.add_jtj(row + a, column + b, block[6 * a + b]);
             }
         }
     }

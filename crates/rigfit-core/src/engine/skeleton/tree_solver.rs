@@ -8,7 +8,7 @@
 
 use nalgebra::DMatrix;
 
-use crate::engine::normal_equations::NormalSink;
+use crate::engine::linear_algebra::NormalSink;
 use crate::kinematics::DofLayout;
 use crate::math::Matrix3;
 
@@ -170,8 +170,8 @@ impl TreeNormalEquations {
     }
 
     /// The Levenberg-Marquardt step `(J^T J + lambda diag(J^T J) + eps I) delta = -J^T r`
-    /// (as [`crate::engine::NormalEquations::solve`]) by a leaves-first `L D L^T` factorisation; `None`
-    /// when the damped matrix is not positive definite.
+    /// (as [`crate::engine::NormalEquations::solve`]) by a leaves-first `L D L^T`
+    /// factorisation; `None` when the damped matrix is not positive definite.
     pub fn solve(&mut self, lambda: f64) -> Option<&[f64]> {
         let scale = self.diag.iter().copied().fold(0.0, f64::max).max(1e-12);
         self.factor_diag.clear();

@@ -7,8 +7,8 @@
 //! `d = p - o`), accumulated bottom-up: the assembly costs O(joints x depth) whatever the
 //! number of points, or O(joints) for [`ArticulatedNormalEquations`].
 
-use crate::engine::articulated::ArticulatedNormalEquations;
-use crate::engine::normal_equations::NormalSink;
+use crate::engine::linear_algebra::NormalSink;
+use crate::engine::skeleton::articulated::ArticulatedNormalEquations;
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Matrix3, Point3, Vector3, skew};
 use crate::skeleton::JointDof;

@@ -11,8 +11,8 @@
 
 use nalgebra::{DMatrix, Matrix6, Matrix6x3, Vector6};
 
-use crate::engine::normal_equations::NormalSink;
-use crate::engine::subtree_moments::{Axes, JointParams};
+use crate::engine::linear_algebra::NormalSink;
+use crate::engine::skeleton::subtree_moments::{Axes, JointParams};
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Matrix3, Vector3, skew};
 

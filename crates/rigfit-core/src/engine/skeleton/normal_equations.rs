@@ -5,10 +5,10 @@
 
 use nalgebra::DMatrix;
 
-use crate::engine::articulated::ArticulatedNormalEquations;
-use crate::engine::normal_equations::{NormalEquations, NormalSink};
-use crate::engine::subtree_moments::SubtreeMoments;
-use crate::engine::tree_solver::TreeNormalEquations;
+use crate::engine::linear_algebra::{NormalEquations, NormalSink};
+use crate::engine::skeleton::articulated::ArticulatedNormalEquations;
+use crate::engine::skeleton::subtree_moments::SubtreeMoments;
+use crate::engine::skeleton::tree_solver::TreeNormalEquations;
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Matrix3, Vector3};
 

@@ -7,7 +7,7 @@ use std::num::NonZero;
 
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
-use super::estep::to_local;
+use super::to_local;
 use crate::math::Point3;
 
 /// A kd-tree over 3D points (indices into the slice it was built from). Coordinates are

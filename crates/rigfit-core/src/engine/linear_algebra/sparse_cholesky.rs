@@ -1,7 +1,7 @@
-//! The scalar pattern of the M-step's block normal equations and its sparse Cholesky
-//! factorisation (faer, supernodal): the fill-reducing (AMD) order and the symbolic
-//! factorisation are computed once, and each solve gathers the blocks' values straight into
-//! the permuted lower triangle, factorises it and solves, with buffers kept between solves.
+//! The sparse Cholesky factorisation of a block pattern's scalar matrix (6x6 blocks; faer,
+//! supernodal): the fill-reducing (AMD) order and the symbolic factorisation are computed
+//! once, and each solve gathers the blocks' values straight into the permuted lower
+//! triangle, factorises it and solves, with buffers kept between solves.
 
 use std::fmt;
 use std::sync::{Arc, Mutex, PoisonError};
@@ -14,7 +14,14 @@ use faer::sparse::linalg::{SupernodalThreshold, amd};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRef};
 use faer::{Conj, Par, Side};
 
-use super::{Block, SolveError};
+use super::block_sparse::Block6;
+
+/// Problems of the linear solve.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SolveError {
+    #[error("the normal equations could not be factorised")]
+    Factorisation,
+}
 
 /// Where a scalar entry's value is in the blocks: its block and its position in the block
 /// (row-major).
@@ -35,7 +42,7 @@ struct ScalarEntry {
 /// The factorisation of the block pattern's scalar matrix: its order, the pattern it reads
 /// and the symbolic factorisation, computed once.
 #[derive(Clone, Debug)]
-pub(super) struct SparseCholesky {
+pub struct SparseCholesky {
     /// The fill-reducing (AMD) order of the scalar unknowns: position `i` of the permuted
     /// system holds unknown `permutation[i]`.
     permutation: Vec<usize>,
@@ -79,10 +86,7 @@ impl SparseCholesky {
     /// The factorisation of the block pattern given, for each block column `l`, by the block
     /// rows `k <= l` present (`column_rows`, sorted) and the offset of its first block
     /// (`column_offset`).
-    pub(super) fn new(
-        column_rows: &[Vec<u32>],
-        column_offset: &[usize],
-    ) -> Result<Self, SolveError> {
+    pub fn new(column_rows: &[Vec<u32>], column_offset: &[usize]) -> Result<Self, SolveError> {
         let n = column_rows.len();
         // The scalar pattern: upper triangle of the block pattern, column by column, each
         // entry with its block and position in the block.
@@ -156,7 +160,7 @@ impl SparseCholesky {
     }
 
     /// Solves `H x = rhs` for the assembled blocks (upper triangle read).
-    pub(super) fn solve(&self, blocks: &[Block], rhs: &mut [f64]) -> Result<(), SolveError> {
+    pub fn solve(&self, blocks: &[Block6], rhs: &mut [f64]) -> Result<(), SolveError> {
         // The buffers hold nothing that outlives a solve, so a poisoned lock is still usable.
         let mut buffers = self
             .buffers
@@ -284,35 +288,36 @@ fn fill_reducing_order(
 
 #[cfg(test)]
 mod tests {
-    use super::super::PatchSystem;
-    use crate::surface::model::{PatchModel, PatchOptions};
-    use crate::surface::test_meshes::torus;
+    use super::super::BlockPattern;
     use rand::{Rng, SeedableRng};
 
-    /// The sparse solve satisfies the block system it was given.
+    /// The sparse solve satisfies the block system it was given (a ring of blocks with a
+    /// few chords).
     #[test]
     fn solve_satisfies_the_block_system() {
-        let reference = torus(30, 15);
-        let model = PatchModel::new(&reference, &PatchOptions::default()).expect("model");
-        let system = PatchSystem::new(&model).expect("system");
+        let n = 40;
+        let pairs = (0..n)
+            .map(|k| (k, (k + 1) % n))
+            .chain((0..n).step_by(7).map(|k| (k, (k + 13) % n)));
+        let pattern = BlockPattern::new(n, pairs).expect("pattern");
         let mut rng = rand::rngs::StdRng::seed_from_u64(9);
-        let mut blocks = vec![[0.0; 36]; system.block_count()];
-        for (block, &(k, l)) in blocks.iter_mut().zip(&system.block_patches) {
+        let mut blocks = vec![[0.0; 36]; pattern.block_count()];
+        for (block, pair) in blocks.iter_mut().zip(pattern.block_pairs()) {
             for (i, x) in block.iter_mut().enumerate() {
                 *x = rng.random::<f64>() - 0.5;
-                if k == l && i % 7 == 0 {
+                if pair.row == pair.column && i % 7 == 0 {
                     *x += 40.0;
                 }
             }
         }
-        let dim = 6 * model.patch_count();
+        let dim = 6 * n;
         let wanted: Vec<f64> = (0..dim).map(|_| rng.random::<f64>() - 0.5).collect();
         let mut x = wanted.clone();
-        system.solve(&blocks, &mut x).expect("solve");
+        pattern.cholesky().solve(&blocks, &mut x).expect("solve");
         // H x, reading each diagonal block's upper triangle.
         let mut product = vec![0.0; dim];
-        for (block, &(k, l)) in blocks.iter().zip(&system.block_patches) {
-            let (k, l) = (k as usize, l as usize);
+        for (block, pair) in blocks.iter().zip(pattern.block_pairs()) {
+            let (k, l) = (pair.row as usize, pair.column as usize);
             for a in 0..6 {
                 for b in 0..6 {
                     let value = if k == l {

@@ -6,38 +6,13 @@
 
 use rayon::prelude::*;
 
-use crate::engine::point_grid::PointGrid;
+use super::candidates::{CUTOFF_SIGMAS, Candidates, candidate_radius};
+use super::posterior::{Evidence, GaussianKernel};
+use crate::engine::spatial::PointGrid;
 use crate::math::{Point3, Vector3};
-
-/// The outlier term of eq. (17)-(18): `c = 3 sqrt(pi / 2)` when the model's small volumes
-/// are negligible next to the working volume.
-pub const DEWAELE_OUTLIER_CONSTANT: f64 = 3.759_942_411_946_42;
-
-/// Kernel cutoff in units of `sigma`: there a model point's kernel, `exp(-3.1)`, is about
-/// 1% of the outlier term `c`.
-const CUTOFF_SIGMAS: f64 = 2.5;
 
 /// Data points per parallel chunk (smaller clouds run on the calling thread).
 const PARALLEL_CHUNK: usize = 4096;
-
-/// `exp(-x)` for `x >= 0` to a relative 2e-8 (a degree-7 polynomial on the fraction
-/// of `x log2 e`), about four times faster than `f64::exp`: the kernel of every E-step.
-#[inline]
-pub fn exp_negative(x: f64) -> f64 {
-    let t = -x * std::f64::consts::LOG2_E;
-    if t < -1000.0 {
-        return 0.0;
-    }
-    let k = t.round();
-    let f = (t - k) * std::f64::consts::LN_2;
-    // e^f for |f| <= ln 2 / 2: Taylor to degree 7.
-    let p = 1.0
-        + f * (1.0
-            + f * (0.5
-                + f * (1.0 / 6.0
-                    + f * (1.0 / 24.0 + f * (1.0 / 120.0 + f * (1.0 / 720.0 + f / 5040.0))))));
-    p * f64::from_bits(((k as i64 + 1023) as u64) << 52)
-}
 
 /// What one E-step gives the M-step.
 #[derive(Clone, Debug, Default)]
@@ -82,49 +57,6 @@ impl Sums {
         }
         self
     }
-}
-
-/// For each data point, the model points within a radius of it: found once with a
-/// [`PointGrid`] and reused by several E-steps while the model moves less than the margin
-/// added to the kernel's cutoff.
-#[derive(Clone, Debug, Default)]
-pub struct Candidates {
-    /// `model[start[j]..start[j + 1]]` are data point `j`'s candidates.
-    start: Vec<u32>,
-    model: Vec<u32>,
-}
-
-impl Candidates {
-    /// Finds, for every data point, the model points within `radius`.
-    pub fn find(&mut self, data: &[Point3], model: &[Point3], radius: f64, grid: &mut PointGrid) {
-        grid.rebuild(model, radius);
-        self.start.clear();
-        self.model.clear();
-        self.start.push(0);
-        for y in data {
-            grid.for_each_within(y, radius, |i, _| self.model.push(i as u32));
-            self.start.push(self.model.len() as u32);
-        }
-    }
-
-    /// Candidates kept, over all data points.
-    pub fn len(&self) -> usize {
-        self.model.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.model.is_empty()
-    }
-
-    fn of(&self, j: usize) -> &[u32] {
-        &self.model[self.start[j] as usize..self.start[j + 1] as usize]
-    }
-}
-
-/// The radius [`Candidates`] should be found with for E-steps at `sigma` while model
-/// points move by up to `margin`.
-pub fn candidate_radius(sigma: f64, margin: f64) -> f64 {
-    CUTOFF_SIGMAS * sigma + margin
 }
 
 /// Points with a weight each (how many points each stands for; 1 for all when `None`).
@@ -179,7 +111,7 @@ pub fn em_step_with(
     let (model, model_weight) = (model.points, model.weights);
     let n = model.len();
     let cutoff2 = (CUTOFF_SIGMAS * sigma).powi(2);
-    let inv_two_s2 = 0.5 / (sigma * sigma);
+    let kernel = GaussianKernel::new(sigma);
     out.inlier.clear();
     out.inlier.resize(data.len(), 0.0);
     out.best.clear();
@@ -188,22 +120,22 @@ pub fn em_step_with(
     // For one data point: its posteriors (eq. 17) into `sums`; returns (inlier, best).
     let visit = |j: usize, y: &Point3, sums: &mut Sums, scratch: &mut Vec<(usize, f64)>| {
         scratch.clear();
-        let mut total = 0.0;
+        let mut evidence = Evidence::new();
         for &i in candidates.of(j) {
             let i = i as usize;
             let d2 = (model[i] - y).norm_squared();
             if d2 > cutoff2 {
                 continue;
             }
-            let e = model_weight.map_or(1.0, |w| w[i]) * exp_negative(d2 * inv_two_s2);
-            total += e;
+            let e = model_weight.map_or(1.0, |w| w[i]) * kernel.fast(d2);
+            evidence.add(e);
             scratch.push((i, e));
         }
-        if total == 0.0 {
+        if evidence.total() == 0.0 {
             return (0.0, u32::MAX);
         }
         let wj = data_weight.map_or(1.0, |w| w[j]);
-        let norm = 1.0 / (total + outlier_c);
+        let norm = evidence.normaliser(outlier_c);
         let mut best = (0.0, u32::MAX);
         for &(i, e) in scratch.iter() {
             let a = e * norm;
@@ -213,7 +145,7 @@ pub fn em_step_with(
                 best = (a, i as u32);
             }
         }
-        (total * norm, best.1)
+        (evidence.total() * norm, best.1)
     };
 
     let sums = if data.len() <= PARALLEL_CHUNK {
@@ -256,6 +188,7 @@ pub fn em_step_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::correspondence::DEWAELE_OUTLIER_CONSTANT;
 
     /// Brute-force eq. (17) on a small case.
     #[test]
@@ -311,16 +244,6 @@ mod tests {
         // inlier only where the model is dense at the scale of sigma.
         assert_eq!(out.inlier_count(), 0);
         assert!(out.inlier[0] > 0.1);
-    }
-
-    #[test]
-    fn fast_exponential_is_accurate() {
-        for i in 0..10_000 {
-            let x = i as f64 * 0.01;
-            let (a, b) = (exp_negative(x), (-x).exp());
-            assert!((a - b).abs() <= 2e-8 * b, "{x}: {a} vs {b}");
-        }
-        assert_eq!(exp_negative(1e6), 0.0);
     }
 
     #[test]
