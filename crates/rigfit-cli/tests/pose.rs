@@ -6,10 +6,9 @@ mod common;
 use std::path::Path;
 
 use common::*;
-use rand::SeedableRng;
 use rigfit_core::Stroke;
-use rigfit_core::pose::sketch::{CaseOptions, make_case};
 use rigfit_formats::rig_file::{RigOptions, StartFrame, read_rig};
+use rigfit_testkit::pose_suites::case_from_clip;
 use serde_json::Value;
 
 fn s(p: &Path) -> &str {
@@ -28,19 +27,10 @@ fn draw_case(rig_path: &Path, frame_or_time: f64, out: &Path) -> Vec<(String, [f
     )
     .expect("rig");
     let rig = &file.rig;
-    let anim = &rig.animations[0];
-    let t = anim
+    let t = rig.animations[0]
         .frame_time
         .map_or(frame_or_time, |dt| frame_or_time * dt);
-    let truth = anim.sample(&rig.pose, t);
-    let mut rng = rand::rngs::StdRng::seed_from_u64(5);
-    let case = make_case(
-        &rig.skeleton,
-        &truth,
-        rig.height(),
-        &CaseOptions::default(),
-        &mut rng,
-    );
+    let (truth, case) = case_from_clip(rig, t, 5);
     rigfit_formats::strokes::write_strokes(out, &case.strokes).expect("write strokes");
     let positions = rig.skeleton.joint_positions(&truth);
     case.drawn_joints

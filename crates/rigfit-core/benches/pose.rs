@@ -3,43 +3,17 @@
 //! every chain, its largest rig (the 82-joint fruit fly) with 17, and the built-in humanoid
 //! with its 6 limb strokes. The goal is live feedback while a stroke is drawn.
 //!
-//! `cargo bench -p rigfit-cli --bench pose`
+//! `cargo bench -p rigfit-core --bench pose`
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use rand::SeedableRng;
 use rigfit_core::joint_model::with_clip_ranges;
-use rigfit_core::pose::beautify::resample;
-use rigfit_core::pose::sketch::{CaseOptions, make_case};
+use rigfit_core::pose::sketch::CaseOptions;
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
-use rigfit_core::{Pose, Rig, Stroke};
+use rigfit_core::{Pose, Rig};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
+use rigfit_testkit::pose_suites::strokes_of_size;
 use rigfit_testkit::targets::{FarPoseOptions, far_pose};
-
-/// `count` strokes of exactly `points` points drawn from `truth` along chains at least
-/// `min_chain_length` of the height, longest chains first.
-fn draw_strokes(
-    rig: &Rig,
-    truth: &Pose,
-    count: usize,
-    points: usize,
-    min_chain_length: f64,
-) -> Vec<Stroke> {
-    let height = rig.height();
-    let options = CaseOptions {
-        min_chain_length,
-        ..Default::default()
-    };
-    let mut rng = rand::rngs::StdRng::seed_from_u64(3);
-    let mut case = make_case(&rig.skeleton, truth, height, &options, &mut rng).strokes;
-    case.sort_by(|a, b| b.length().total_cmp(&a.length()));
-    case.truncate(count);
-    for s in &mut case {
-        let spacing = s.length() / (points - 1) as f64;
-        s.points = resample(&s.points, spacing * 0.999);
-        s.points.truncate(points);
-    }
-    case
-}
 
 /// A rig of the posing corpus with `joints` joints, or `None` (with a note) when the corpus
 /// is not on this machine.
@@ -73,7 +47,11 @@ fn bench_rig(
     (strokes, min_chain_length): (usize, f64),
     paper_too: bool,
 ) {
-    let drawn = draw_strokes(rig, truth, strokes, 100, min_chain_length);
+    let options = CaseOptions {
+        min_chain_length,
+        ..Default::default()
+    };
+    let drawn = strokes_of_size(rig, truth, strokes, 100, &options);
     assert_eq!(drawn.len(), strokes, "{name}");
     assert!(drawn.iter().all(|s| s.points.len() == 100), "{name}");
     let skeleton = with_clip_ranges(&rig.skeleton, &rig.animations);

@@ -4,7 +4,7 @@
 //! against 3,000 points (goal: 60 per second). Each iteration tracks the next frame; the
 //! tracker restarts from the first true pose when the sequence wraps around.
 //!
-//! `RAYON_NUM_THREADS=1 cargo bench -p rigfit-cli --bench track`
+//! `RAYON_NUM_THREADS=1 cargo bench -p rigfit-core --bench track`
 
 use rigfit_testkit::track_suites;
 

@@ -2,7 +2,7 @@
 //! assets' own animations (see tests/common/pose_suites.rs), solved by the paper's method and
 //! by rigfit's improvements one by one.
 //!
-//! `cargo run --release -p rigfit-cli --example pose_accuracy` (`VERBOSE=1` for every case)
+//! `cargo run --release -p rigfit-testkit --example pose_accuracy` (`VERBOSE=1` for every case)
 
 use rigfit_testkit::pose_suites;
 

@@ -3,7 +3,7 @@
 //! limb dropped and one stray (`strokes_hard.json`), and `cases.json` listing each case's
 //! rig file and start frame, for `rigfit pose` by hand or in a batch (scripts/compare-builds.sh).
 //!
-//! `cargo run --release -p rigfit-cli --example pose_cases -- OUT`
+//! `cargo run --release -p rigfit-testkit --example pose_cases -- OUT`
 
 use rigfit_testkit::pose_suites;
 

@@ -3,7 +3,7 @@
 //! paper's method on the 25 ground-truth cases of `pose_accuracy`, and solve time against
 //! the number of stroke points, log-log, on BCN_Epileptic (55 joints, 10 strokes).
 //!
-//! `cargo run --release -p rigfit-cli --example pose_plots [OUT_DIR]` (default docs/img)
+//! `cargo run --release -p rigfit-testkit --example pose_plots [OUT_DIR]` (default docs/img)
 
 #[path = "common/plot_file.rs"]
 mod plot_file;
@@ -14,11 +14,8 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use plot_file::write;
-use rand::SeedableRng;
-use rigfit_core::pose::beautify::resample;
-use rigfit_core::pose::sketch::{CaseOptions, make_case};
+use rigfit_core::pose::sketch::CaseOptions;
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
-use rigfit_core::{Pose, Rig, Stroke};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 use rigfit_render::{Chart, Series, line_chart};
 
@@ -45,25 +42,6 @@ fn errors(
         errors.iter().sum::<f64>() / errors.len() as f64,
         errors[errors.len() / 2],
     )
-}
-
-/// `count` strokes of exactly `points` points drawn from `truth`, longest chains first.
-fn draw_strokes(rig: &Rig, truth: &Pose, count: usize, points: usize) -> Vec<Stroke> {
-    let options = CaseOptions {
-        min_chain_length: 0.03,
-        sample_spacing: 0.0005,
-        ..Default::default()
-    };
-    let mut rng = rand::rngs::StdRng::seed_from_u64(3);
-    let mut strokes = make_case(&rig.skeleton, truth, rig.height(), &options, &mut rng).strokes;
-    strokes.sort_by(|a, b| b.length().total_cmp(&a.length()));
-    strokes.truncate(count);
-    for s in &mut strokes {
-        let spacing = s.length() / (points - 1) as f64;
-        s.points = resample(&s.points, spacing * 0.999);
-        s.points.truncate(points);
-    }
-    strokes
 }
 
 fn main() {
@@ -169,7 +147,12 @@ fn main() {
         let points: Vec<(f64, f64)> = per_stroke
             .iter()
             .map(|&n| {
-                let strokes = draw_strokes(rig, &truth, 10, n);
+                let drawing = CaseOptions {
+                    min_chain_length: 0.03,
+                    sample_spacing: 0.0005,
+                    ..Default::default()
+                };
+                let strokes = pose_suites::strokes_of_size(rig, &truth, 10, n, &drawing);
                 let total: usize = strokes.iter().map(|s| s.points.len()).sum();
                 let problem = PoseProblem {
                     skeleton: &rig.skeleton,

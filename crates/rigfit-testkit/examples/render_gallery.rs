@@ -3,7 +3,7 @@
 //! result side by side) and a `track --render`-style contact sheet with per-frame plots
 //! (01_01.bvh posed frame by frame from strokes, each frame starting from the last).
 //!
-//! `cargo run --release -p rigfit-cli --example render_gallery [OUT_DIR]` (default docs/img)
+//! `cargo run --release -p rigfit-testkit --example render_gallery [OUT_DIR]` (default docs/img)
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -17,6 +17,7 @@ use rigfit_render::{
     FrameStats, Image, RenderOptions, Scene, View, chain_colors, pick_frames, render,
     render_side_by_side, stroke_colors, tracking_sheet,
 };
+use rigfit_testkit::pose_suites::case_from_clip;
 
 fn write(image: &Image, dir: &Path, name: &str) {
     let path = dir.join(name);
@@ -148,15 +149,7 @@ fn main() {
     };
     let mut sheet = Vec::new();
     for (k, &frame) in solved_frames.iter().enumerate() {
-        let truth = animation.sample(&rig.pose, frame as f64 * frame_time);
-        let mut rng = rand::rngs::StdRng::seed_from_u64(frame as u64);
-        let case = make_case(
-            &rig.skeleton,
-            &truth,
-            rig.height(),
-            &CaseOptions::default(),
-            &mut rng,
-        );
+        let (truth, case) = case_from_clip(rig, frame as f64 * frame_time, frame as u64);
         let problem = PoseProblem {
             skeleton: &rig.skeleton,
             start: &previous,

@@ -3,7 +3,7 @@
 //! noise, 15% outliers, a limb missing in frames 10-12), tracked frame to frame by the
 //! paper's method and by rigfit's additions one by one.
 //!
-//! `cargo run --release -p rigfit-cli --example surface_accuracy` (`VERBOSE=1` for every
+//! `cargo run --release -p rigfit-testkit --example surface_accuracy` (`VERBOSE=1` for every
 //! frame; `METHOD=rigfit` for the rows whose label starts so)
 
 use std::time::Instant;

@@ -5,7 +5,7 @@
 //! axes from `scripts/bench-surface-scaling.sh`'s table.
 //!
 //! `scripts/bench-surface-scaling.sh > target/surface-scaling.tsv`
-//! `cargo run --release -p rigfit-cli --example surface_plots -- docs/img target/surface-scaling.tsv`
+//! `cargo run --release -p rigfit-testkit --example surface_plots -- docs/img target/surface-scaling.tsv`
 
 #[path = "common/plot_file.rs"]
 mod plot_file;

@@ -4,7 +4,7 @@
 //! `OUT/scan_NNNN.ply` (points and normals), `OUT/truth_NNNN.ply` (the true vertex positions,
 //! with the reference's faces) and `OUT/sequence.json` (diagonal, counts, hole frames).
 //!
-//! `cargo run --release -p rigfit-cli --example surface_sequence -- ASSET CLIP OUT [FRAMES] [POINTS] [SEED]`
+//! `cargo run --release -p rigfit-testkit --example surface_sequence -- ASSET CLIP OUT [FRAMES] [POINTS] [SEED]`
 
 use std::path::PathBuf;
 

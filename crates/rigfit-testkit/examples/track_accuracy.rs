@@ -2,7 +2,7 @@
 //! the real assets (see tests/common/track_suites.rs), tracked by the EM of Dewaele et al.
 //! as published and with rigfit's additions one by one.
 //!
-//! `cargo run --release -p rigfit-cli --example track_accuracy [SUITE...]` (`VERBOSE=1`
+//! `cargo run --release -p rigfit-testkit --example track_accuracy [SUITE...]` (`VERBOSE=1`
 //! prints every frame)
 
 use rigfit_testkit::track_suites;

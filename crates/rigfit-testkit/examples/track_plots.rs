@@ -4,7 +4,7 @@
 //! accuracy table), and time per frame against points per frame, log-log, on the
 //! hand and BCN_Epileptic.
 //!
-//! `cargo run --release -p rigfit-cli --example track_plots [OUT_DIR]` (default docs/img)
+//! `cargo run --release -p rigfit-testkit --example track_plots [OUT_DIR]` (default docs/img)
 
 #[path = "common/plot_file.rs"]
 mod plot_file;

@@ -2,7 +2,7 @@
 //! `rigfit track` by hand: the start rig (the first true pose), one `.ply` cloud per frame,
 //! and the true joint positions per frame as a track report (`truth.json`).
 //!
-//! `cargo run --release -p rigfit-cli --example track_sequence -- hand target/track-demo`
+//! `cargo run --release -p rigfit-testkit --example track_sequence -- hand target/track-demo`
 //! (suites: BCN_Epileptic, Testwuson, hand, 01_01), then
 //! `rigfit track target/track-demo/start.glb target/track-demo/frame_*.ply -o track.glb`
 

@@ -6,9 +6,10 @@
 use crate::sweep::limb_motion;
 use rand::SeedableRng;
 use rigfit_core::humanoid::humanoid;
-use rigfit_core::pose::sketch::{CaseOptions, make_case, mean_joint_error};
+use rigfit_core::pose::beautify::resample;
+use rigfit_core::pose::sketch::{Case, CaseOptions, make_case, mean_joint_error};
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
-use rigfit_core::{Joint, Pose, Quat, Rig, Skeleton, Trs, Vector3};
+use rigfit_core::{Joint, Pose, Quat, Rig, Skeleton, Stroke, Trs, Vector3};
 use rigfit_formats::rig_file::{RigOptions, StartFrame, read_rig};
 
 use crate::assets::asset;
@@ -168,4 +169,41 @@ pub fn humanoid_with(extra: &[(&str, &str, [f64; 3])]) -> Rig {
             .resize(rig.skeleton.len(), rigfit_core::math::Matrix4::identity());
     }
     rig
+}
+
+/// The rig's first clip sampled at `time` (seconds), and strokes drawn through that pose as a
+/// user would (the default [`CaseOptions`], seeded by `seed`): the true pose and the case.
+pub fn case_from_clip(rig: &Rig, time: f64, seed: u64) -> (Pose, Case) {
+    let clip = rig.animations.first().expect("the rig has an animation");
+    let truth = clip.sample(&rig.pose, time);
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let case = make_case(
+        &rig.skeleton,
+        &truth,
+        rig.height(),
+        &CaseOptions::default(),
+        &mut rng,
+    );
+    (truth, case)
+}
+
+/// `count` strokes of exactly `points` points each drawn through `truth` (`options`, seed 3),
+/// the longest chains first: the fixed-size inputs of the posing bench and speed plots.
+pub fn strokes_of_size(
+    rig: &Rig,
+    truth: &Pose,
+    count: usize,
+    points: usize,
+    options: &CaseOptions,
+) -> Vec<Stroke> {
+    let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+    let mut strokes = make_case(&rig.skeleton, truth, rig.height(), options, &mut rng).strokes;
+    strokes.sort_by(|a, b| b.length().total_cmp(&a.length()));
+    strokes.truncate(count);
+    for s in &mut strokes {
+        let spacing = s.length() / (points - 1) as f64;
+        s.points = resample(&s.points, spacing * 0.999);
+        s.points.truncate(points);
+    }
+    strokes
 }

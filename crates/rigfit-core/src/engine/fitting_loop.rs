@@ -5,10 +5,10 @@
 //! ([`continued_trs`], [`continued_rotation`]).
 //!
 //! A model implements [`EmModel`]: what its E-step and M-step do, and how far an M-step moved
-//! it. [`run_em`] owns the rest: the widths (a fixed schedule, Dewaele et al. 2006 sec. 4 and
-//! Cannavò et al. 2020's deterministic annealing; or the width the M-step estimates, Cagniart
-//! et al. 2010 eq. 15's sigma, falling no faster than an annealing rate), the iterations per width,
-//! and when to stop.
+//! it. [`run_em`] owns the rest: the widths (a fixed schedule, Dewaele et al. 2006 sec. 4
+//! and Cannavò et al. 2020's deterministic annealing; or the width the M-step estimates,
+//! Cagniart et al. 2010 eq. 15, falling no faster than an annealing rate), the iterations
+//! per width, and when to stop.
 
 use crate::math::{Matrix3, Quat, Trs};
 

@@ -9,10 +9,9 @@ pub mod rigs;
 use axum::Router;
 use axum::body::Body;
 use axum::http::{HeaderMap, Request, StatusCode};
-use rand::SeedableRng;
-use rigfit_core::pose::sketch::{CaseOptions, make_case};
 use rigfit_core::{Pose, Rig};
 use rigfit_server::{AppState, ServerConfig};
+use rigfit_testkit::pose_suites::case_from_clip;
 use serde_json::{Value, json};
 use tower::ServiceExt as _;
 
@@ -178,15 +177,7 @@ pub struct SolveCase {
 pub fn case_from_animation(rig: &Rig, fraction: f64, seed: u64) -> SolveCase {
     let anim = rig.animations.first().expect("the rig has an animation");
     let (s, e) = (anim.start(), anim.end());
-    let truth = anim.sample(&rig.pose, s + (e - s) * fraction);
-    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-    let case = make_case(
-        &rig.skeleton,
-        &truth,
-        rig.height(),
-        &CaseOptions::default(),
-        &mut rng,
-    );
+    let (truth, case) = case_from_clip(rig, s + (e - s) * fraction, seed);
     let strokes: Vec<Value> = case
         .strokes
         .iter()
