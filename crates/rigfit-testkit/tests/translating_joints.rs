@@ -1,10 +1,14 @@
 //! Joints that translate (issue 20): a rig whose animation moves a joint's translation gets
 //! translation degrees of freedom, and posing moves it; a marker rig (every joint a child
 //! of one root, moved by translation alone) is posed from strokes pinned to its markers and
-//! refused, with one line saying why, when no stroke says which marker it draws.
+//! refused, with one line saying why, when no stroke says which marker it draws; and a
+//! marker rig is tracked by its markers' translations (issue 23).
 
 use rigfit_core::JointDof;
 use rigfit_core::pose::{PoseError, PoseOptions, PoseProblem, solve_pose};
+use rigfit_core::track::{ArticulatedModel, TrackOptions, Tracker};
+use rigfit_testkit::track_cases::{SequenceOptions, clip_poses, make_sequence};
+use rigfit_testkit::track_suites::joint_error;
 use rigfit_testkit::{Corpus, CorpusRig, Scenario, generate_case, pinned_to_markers};
 
 fn corpus_rig(id: &str) -> CorpusRig {
@@ -98,4 +102,34 @@ fn pinned_strokes_move_markers_by_translation() {
         skeleton.len()
     );
     assert!(result.stroke_bones.iter().all(|b| !b.is_empty()));
+}
+
+/// A marker rig's scans, seen as a depth camera sees its markers (a blob each, carried by
+/// the marker's own translation), are tracked from the first frame's true pose with the
+/// markers' translation degrees of freedom: 60 frames of its clip, 1% noise, 25% outliers.
+#[test]
+fn a_marker_rig_is_tracked_by_its_markers_translations() {
+    let markers = corpus_rig("markers-boxing_toes");
+    let rig = &markers.rig;
+    let poses = clip_poses(rig, 0, 60, 30.0, 1.0);
+    let model = ArticulatedModel::from_rig(rig, TrackOptions::default().model_points)
+        .expect("a model of the markers");
+    let frames = make_sequence(rig, &model.parts, &poses, &SequenceOptions::default());
+    let mut tracker = Tracker::new(model, TrackOptions::default()).expect("tracker");
+    tracker.set_pose(&frames[0].truth);
+    let height = rig.height();
+    let errors: Vec<f64> = frames
+        .iter()
+        .map(|frame| {
+            let fit = tracker.track(&frame.points).expect("tracks");
+            joint_error(rig, &fit.pose, &frame.truth, height)
+        })
+        .collect();
+    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+    // Measured: 1.84% mean (before the markers carried their own blobs: 11.4%).
+    assert!(
+        mean < 0.03,
+        "mean joint error {:.2}% of the height",
+        100.0 * mean
+    );
 }

@@ -8,7 +8,7 @@ use nalgebra::SymmetricEigen;
 use crate::geometry::TriMesh;
 use crate::kinematics::ForwardKinematics;
 use crate::math::{Matrix3, Point3, Vector3, linear_part, transform_point};
-use crate::skeleton::{JointKind, Pose, Skeleton};
+use crate::skeleton::{JointDof, JointKind, Pose, Skeleton};
 use crate::skinning::SkinnedMesh;
 
 /// An ellipsoid carried by a joint: `{ center + shape * u : |u| = 1 }` in the joint's frame.
@@ -175,6 +175,16 @@ impl PartModel {
                 continue;
             }
             let (a, b) = (origin(j), origin(c));
+            if joint.dof == JointDof::Free {
+                // A joint that translates (a marker) is not joined to its parent by a limb:
+                // it carries a small blob of its own, which follows its translation.
+                let radius = 0.02 * height;
+                let shape = Matrix3::identity() * radius;
+                if let Some(part) = to_joint_frame(&world[c], c, &b, &shape) {
+                    parts.push(part);
+                }
+                continue;
+            }
             let length = (b - a).norm();
             if length < 0.01 * height {
                 continue;
