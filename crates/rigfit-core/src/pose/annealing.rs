@@ -89,6 +89,29 @@ struct MatchAndAlign<'s, 'a, 'f> {
     stale: bool,
 }
 
+impl<'s, 'a, 'f> MatchAndAlign<'s, 'a, 'f> {
+    /// Nothing matched yet; `aligns` alignment steps per match.
+    fn new(
+        setup: &'s Setup<'a>,
+        fitter: &'f mut Fitter,
+        layout: &'s DofLayout,
+        allowed: AllowedBones<'s>,
+        aligns: usize,
+        settling: bool,
+    ) -> Self {
+        Self {
+            setup,
+            fitter,
+            layout,
+            allowed,
+            aligns,
+            settling,
+            matches: MatchMatrix::default(),
+            stale: true,
+        }
+    }
+}
+
 impl EmModel for MatchAndAlign<'_, '_, '_> {
     type Error = std::convert::Infallible;
 
@@ -143,16 +166,14 @@ pub(super) fn anneal(
         final_rounds: 1,
         tolerance: None,
     };
-    let model = MatchAndAlign {
+    let model = MatchAndAlign::new(
         setup,
         fitter,
         layout,
         allowed,
-        aligns: setup.options.gauss_newton_steps,
-        settling: false,
-        matches: MatchMatrix::default(),
-        stale: true,
-    };
+        setup.options.gauss_newton_steps,
+        false,
+    );
     match_and_align(model, &schedule)
 }
 
@@ -170,16 +191,7 @@ pub(super) fn settle(
         final_rounds: setup.options.max_final_iterations,
         tolerance: None,
     };
-    let model = MatchAndAlign {
-        setup,
-        fitter,
-        layout,
-        allowed,
-        aligns: 1,
-        settling: true,
-        matches: MatchMatrix::default(),
-        stale: true,
-    };
+    let model = MatchAndAlign::new(setup, fitter, layout, allowed, 1, true);
     match_and_align(model, &schedule)
 }
 
