@@ -7,12 +7,13 @@
 //!
 //! `cargo run --release -p rigfit-testkit --example track_init [SUITE...]`
 //! (`SEEDS=5` motions per suite, `POINTS=2000` points per frame, `VERBOSE=1` prints every
-//! hypothesis the initialisation tried)
+//! hypothesis the initialisation tried; HEADINGS, ROOT_SIGMA, ROOT_FLOOR, KEEP, FULL_SIGMA,
+//! FULL_STEPS, FULL_PRIOR, SCORE_SIGMA, PASSES, REFINE_SIGMA, REFINE_STEPS override `InitialiseOptions`)
 
 use std::time::Instant;
 
 use rand::{Rng, SeedableRng};
-use rigfit_core::track::{TrackOptions, Tracker, initialise};
+use rigfit_core::track::{InitialiseOptions, TrackOptions, Tracker, initialise_with};
 use rigfit_core::{Point3, Pose, Quat, Vector3};
 use rigfit_testkit::track_cases::SequenceOptions;
 use rigfit_testkit::track_suites::{self, FRAMES, joint_error};
@@ -30,6 +31,19 @@ fn env_usize(name: &str, default: usize) -> usize {
         .unwrap_or(default)
 }
 
+/// Sum of squared rotation angles of the non-root joints away from the rig's stored pose.
+fn bend(rig: &rigfit_core::Rig, pose: &Pose) -> f64 {
+    (0..rig.skeleton.len())
+        .filter(|&j| rig.skeleton.joint(j).parent.is_some())
+        .map(|j| {
+            rig.pose.local[j]
+                .rotation
+                .angle_to(&pose.local[j].rotation)
+                .powi(2)
+        })
+        .sum()
+}
+
 fn main() {
     let seeds = env_usize("SEEDS", 5);
     let points = env_usize("POINTS", 2000);
@@ -40,6 +54,27 @@ fn main() {
         .filter(|n| names.is_empty() || names.iter().any(|m| m == n))
         .collect();
     let options = TrackOptions::default();
+    let env_f64 = |name: &str, default: f64| {
+        std::env::var(name)
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(default)
+    };
+    let d = InitialiseOptions::default();
+    let settings = InitialiseOptions {
+        headings: env_usize("HEADINGS", d.headings),
+        root_sigma: env_f64("ROOT_SIGMA", d.root_sigma),
+        root_floor: env_f64("ROOT_FLOOR", d.root_floor),
+        keep: env_usize("KEEP", d.keep),
+        full_sigma: env_f64("FULL_SIGMA", d.full_sigma),
+        full_steps: env_usize("FULL_STEPS", d.full_steps),
+        full_prior_weight: env_f64("FULL_PRIOR", d.full_prior_weight),
+        score_sigma: env_f64("SCORE_SIGMA", d.score_sigma),
+        full_passes: env_usize("PASSES", d.full_passes),
+        refine_sigma: env_f64("REFINE_SIGMA", d.refine_sigma),
+        refine_steps: env_usize("REFINE_STEPS", d.refine_steps),
+        ..d
+    };
     let sequence = SequenceOptions {
         points,
         ..SequenceOptions::default()
@@ -91,31 +126,58 @@ fn main() {
                 })
                 .collect();
             let t0 = Instant::now();
-            let init = initialise(&suite.model, &options, &frames[0].0).expect("initialises");
+            let init = initialise_with(&suite.model, &options, &settings, &frames[0].0)
+                .expect("initialises");
             let seconds = t0.elapsed().as_secs_f64();
             times.push(seconds);
             let init_error = joint_error(rig, &init.pose, &frames[0].1, h);
             if verbose {
                 for t in &init.tried {
                     eprintln!(
-                        "  heading {:>3.0} centre {}: root {:.3} full {} error {:.2}%",
+                        "  heading {:>3.0} centre {}: root {:.3} full {} error {:.2}% bend {:.2}",
                         t.heading.to_degrees(),
                         t.centre,
                         t.root_score,
                         t.full_score.map_or("-".into(), |s| format!("{s:.3}")),
-                        100.0 * joint_error(rig, &t.pose, &frames[0].1, h)
+                        100.0 * joint_error(rig, &t.pose, &frames[0].1, h),
+                        bend(rig, &t.pose)
                     );
+                    if t.full_score.is_some() && std::env::var("JOINTS").is_ok() {
+                        let a = rig.skeleton.joint_positions(&t.pose);
+                        let b = rig.skeleton.joint_positions(&frames[0].1);
+                        for j in rig.reported_joints() {
+                            eprintln!(
+                                "    {:<16} {:.1}%",
+                                rig.skeleton.joint(j).name,
+                                100.0 * (a[j] - b[j]).norm() / h
+                            );
+                        }
+                    }
                 }
             }
             let mut tracker = Tracker::new(suite.model.clone(), options.clone()).expect("tracker");
             tracker.set_pose(&init.pose);
+            let mut last = init.pose.clone();
             let errors: Vec<f64> = frames
                 .iter()
                 .map(|(points, truth)| {
                     let fit = tracker.track(points).expect("frame tracks");
+                    last.clone_from(&fit.pose);
                     joint_error(rig, &fit.pose, truth, h)
                 })
                 .collect();
+            if verbose && std::env::var("JOINTS").is_ok() {
+                let a = rig.skeleton.joint_positions(&last);
+                let b = rig.skeleton.joint_positions(&frames[frames.len() - 1].1);
+                eprintln!("  last frame:");
+                for j in rig.reported_joints() {
+                    eprintln!(
+                        "    {:<16} {:.1}%",
+                        rig.skeleton.joint(j).name,
+                        100.0 * (a[j] - b[j]).norm() / h
+                    );
+                }
+            }
             let later = &errors[FROM.min(errors.len())..];
             let mean = later.iter().sum::<f64>() / later.len().max(1) as f64;
             let worst = later.iter().copied().fold(0.0, f64::max);

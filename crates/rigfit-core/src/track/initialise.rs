@@ -5,31 +5,64 @@
 //! to the noise level; the hypothesis whose final E-step explains the most data wins.
 
 use super::{ArticulatedModel, TrackError, TrackOptions, Tracker};
+use crate::engine::{WeightedPoints, em_step};
 use crate::kinematics::DofLayout;
 use crate::math::{Point3, Quat, Vector3};
 use crate::skeleton::{JointDof, Pose};
-
-/// Headings tried about the up axis (evenly spaced): the root-only EM at a wide `sigma`
-/// brings a start within half the spacing to the right heading.
-const HEADINGS: usize = 8;
-
-/// Root-only EM: `sigma` from this fraction of the height ...
-const ROOT_SIGMA_START: f64 = 0.3;
-/// ... down to this one, in this many geometric steps.
-const ROOT_SIGMA_END: f64 = 0.03;
-const ROOT_STEPS: usize = 5;
-
-/// Hypotheses carried on to the fit of every joint.
-const KEEP: usize = 3;
 
 /// Two root-only fits are one hypothesis when their roots are this close (fraction of the
 /// height) and turned less than this (radians) from each other.
 const SAME_PLACE: f64 = 0.05;
 const SAME_TURN: f64 = 0.35;
 
-/// Every-joint EM: `sigma` from this fraction of the height down to the noise level.
-const FULL_SIGMA_START: f64 = 0.12;
-const FULL_STEPS: usize = 6;
+/// The initialisation's settings. Lengths are fractions of the character's height.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InitialiseOptions {
+    /// Headings tried about the up axis (evenly spaced): the root-only EM at a wide `sigma`
+    /// brings a start within half the spacing to the right heading.
+    pub headings: usize,
+    /// Root-only EM: `sigma` from `root_sigma` down to `root_floor` in `root_steps`
+    /// geometric steps.
+    pub root_sigma: f64,
+    pub root_floor: f64,
+    pub root_steps: usize,
+    /// Hypotheses (distinct root placements) carried on to the fit of every joint.
+    pub keep: usize,
+    /// Every-joint EM: `sigma` from `full_sigma` down to the tracker's noise level in
+    /// `full_steps` geometric steps, with this weight on the rotation prior toward the
+    /// start pose.
+    pub full_sigma: f64,
+    pub full_steps: usize,
+    pub full_prior_weight: f64,
+    /// Every-joint passes in all: after the first (which chooses the winner), the winner's
+    /// further passes each start from the last one's pose, `sigma` from `refine_sigma` in
+    /// `refine_steps` steps, with the tracker's own prior weight.
+    pub full_passes: usize,
+    pub refine_sigma: f64,
+    pub refine_steps: usize,
+    /// The width at which hypotheses are compared: the data's summed inlier posteriors of
+    /// one E-step (eq. 17) at this `sigma`, over every texture point.
+    pub score_sigma: f64,
+}
+
+impl Default for InitialiseOptions {
+    fn default() -> Self {
+        Self {
+            headings: 8,
+            root_sigma: 0.3,
+            root_floor: 0.03,
+            root_steps: 5,
+            keep: 3,
+            full_sigma: 0.12,
+            full_steps: 6,
+            full_prior_weight: 0.1,
+            full_passes: 3,
+            refine_sigma: 0.06,
+            refine_steps: 4,
+            score_sigma: 0.03,
+        }
+    }
+}
 
 /// What [`initialise`] found.
 #[derive(Clone, Debug)]
@@ -69,11 +102,22 @@ struct Hypothesis {
 }
 
 /// The pose of a first frame `data` from `model`'s start pose, by EM from several
-/// placements (see the module's documentation). `options` are the tracker's: its noise
-/// level, outlier term (eq. 17), bending exponent (eq. 3) and M-step settings.
+/// placements (see the module's documentation), with the default [`InitialiseOptions`].
+/// `options` are the tracker's: its noise level, outlier term (eq. 17), bending exponent
+/// (eq. 3) and M-step settings.
 pub fn initialise(
     model: &ArticulatedModel,
     options: &TrackOptions,
+    data: &[Point3],
+) -> Result<Initialisation, TrackError> {
+    initialise_with(model, options, &InitialiseOptions::default(), data)
+}
+
+/// [`initialise`] with its settings.
+pub fn initialise_with(
+    model: &ArticulatedModel,
+    options: &TrackOptions,
+    settings: &InitialiseOptions,
     data: &[Point3],
 ) -> Result<Initialisation, TrackError> {
     if data.is_empty() {
@@ -86,9 +130,9 @@ pub fn initialise(
         return Err(TrackError::OutOfRange { index });
     }
     let root_options = TrackOptions {
-        max_motion: ROOT_SIGMA_START,
-        noise: ROOT_SIGMA_END,
-        anneal_steps: ROOT_STEPS,
+        max_motion: settings.root_sigma,
+        noise: settings.root_floor,
+        anneal_steps: settings.root_steps,
         em_iterations: 2,
         final_em_iterations: 4,
         prediction: 0.0,
@@ -114,6 +158,7 @@ pub fn initialise(
         return Err(TrackError::NothingMoves);
     }
     let up = up_axis(model);
+    let score_sigma = settings.score_sigma * h;
     let model_centre = mean(&tracker.texture_positions());
     let centres = data_centres(data, h);
 
@@ -122,12 +167,12 @@ pub fn initialise(
     tracker.normal = None;
     let mut root_fits: Vec<Hypothesis> = Vec::new();
     for (c, centre) in centres.iter().enumerate() {
-        for k in 0..HEADINGS {
-            let heading = std::f64::consts::TAU * k as f64 / HEADINGS as f64;
+        for k in 0..settings.headings.max(1) {
+            let heading = std::f64::consts::TAU * k as f64 / settings.headings.max(1) as f64;
             let turn = Quat::from_axis_angle(&up, heading);
             let shift = centre.coords - turn * model_centre.coords;
             let start = moved(&model.start, skeleton, &turn, &shift);
-            let score = fit(&mut tracker, &start, data);
+            let score = fit(&mut tracker, &start, data, score_sigma);
             root_fits.push(Hypothesis {
                 heading,
                 centre: c,
@@ -139,7 +184,7 @@ pub fn initialise(
     root_fits.sort_by(|a, b| b.score.total_cmp(&a.score));
     let mut kept: Vec<Hypothesis> = Vec::new();
     for hyp in &root_fits {
-        if kept.len() == KEEP {
+        if kept.len() == settings.keep.max(1) {
             break;
         }
         if !kept
@@ -154,12 +199,12 @@ pub fn initialise(
     tracker.layout = full_layout;
     tracker.normal = None;
     tracker.options = TrackOptions {
-        max_motion: FULL_SIGMA_START,
+        max_motion: settings.full_sigma,
         noise: options.noise,
-        anneal_steps: FULL_STEPS,
+        anneal_steps: settings.full_steps,
         em_iterations: 2,
         final_em_iterations: 8,
-        prior_weight: options.prior_weight,
+        prior_weight: settings.full_prior_weight,
         ..tracker.options.clone()
     };
     let mut tried: Vec<Tried> = root_fits
@@ -174,7 +219,10 @@ pub fn initialise(
         .collect();
     let mut best: Option<Hypothesis> = None;
     for hyp in kept {
-        let score = fit(&mut tracker, &hyp.pose, data);
+        tracker.options.prior_weight = settings.full_prior_weight;
+        tracker.options.max_motion = settings.full_sigma;
+        tracker.options.anneal_steps = settings.full_steps;
+        let score = fit(&mut tracker, &hyp.pose, data, score_sigma);
         tracing::debug!(
             "initialise: heading {:.0} root score {:.3} -> {:.3}",
             hyp.heading.to_degrees(),
@@ -197,7 +245,18 @@ pub fn initialise(
             });
         }
     }
-    let best = best.ok_or(TrackError::NothingMoves)?;
+    let mut best = best.ok_or(TrackError::NothingMoves)?;
+    // Further passes on the winner from its pose (the prior now toward it, the tracker's
+    // weight), from a narrower width: limbs that came only part of the way go on. The
+    // choice is made before them: the stronger prior of the first pass keeps a body fitted
+    // facing the wrong way from bending its limbs into the data.
+    tracker.options.prior_weight = options.prior_weight;
+    tracker.options.max_motion = settings.refine_sigma;
+    tracker.options.anneal_steps = settings.refine_steps;
+    for _ in 1..settings.full_passes.max(1) {
+        best.score = fit(&mut tracker, &best.pose, data, score_sigma);
+        best.pose.clone_from(&tracker.pose);
+    }
     Ok(Initialisation {
         pose: best.pose,
         score: best.score,
@@ -206,16 +265,24 @@ pub fn initialise(
     })
 }
 
-/// One EM run of the tracker (its current layout and options) from `start` on `data`; the
-/// data's summed inlier posteriors of the final E-step (eq. 17, at the options' noise
-/// level), per data point.
-fn fit(tracker: &mut Tracker, start: &Pose, data: &[Point3]) -> f64 {
+/// One EM run of the tracker (its current layout and options) from `start` on `data`,
+/// then its score: the data's summed inlier posteriors (eq. 17) at `sigma`, per data point.
+fn fit(tracker: &mut Tracker, start: &Pose, data: &[Point3], sigma: f64) -> f64 {
     tracker.set_pose(start);
     tracker.lambda = 1e-4;
-    match tracker.track(data) {
-        Ok(_) => tracker.em.inlier.iter().sum::<f64>() / data.len() as f64,
-        Err(_) => f64::NEG_INFINITY,
+    if tracker.track(data).is_err() {
+        return f64::NEG_INFINITY;
     }
+    let world = tracker.texture_positions();
+    em_step(
+        WeightedPoints::unit(data),
+        WeightedPoints::unit(&world),
+        sigma,
+        tracker.options.outlier_constant,
+        &mut tracker.grid,
+        &mut tracker.em,
+    );
+    tracker.em.inlier.iter().sum::<f64>() / data.len() as f64
 }
 
 /// The topmost joints that move: a joint with its own degrees of freedom and no moving

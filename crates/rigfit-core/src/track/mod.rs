@@ -27,7 +27,7 @@ use crate::skeleton::{Pose, Skeleton};
 use parts::{PartModel, PlacedParts};
 use texture::TexturePoint;
 
-pub use initialise::{Initialisation, Tried, initialise};
+pub use initialise::{Initialisation, InitialiseOptions, Tried, initialise, initialise_with};
 pub use model::{bind_pose, texture_count};
 pub use options::{TextureSource, TrackOptions};
 
