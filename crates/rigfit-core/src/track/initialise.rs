@@ -55,7 +55,7 @@ impl Default for InitialiseOptions {
             keep: 3,
             full_sigma: 0.12,
             full_steps: 6,
-            full_prior_weight: 0.1,
+            full_prior_weight: 0.3,
             full_passes: 3,
             refine_sigma: 0.06,
             refine_steps: 4,
@@ -377,4 +377,37 @@ fn same_place(
         (pa[j] - pb[j]).norm() < SAME_PLACE * height
             && a.local[j].rotation.angle_to(&b.local[j].rotation) < SAME_TURN
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::humanoid::humanoid;
+
+    /// The humanoid's own surface, turned and moved far from where the model stands, is
+    /// found again from the model's start pose.
+    #[test]
+    fn finds_a_turned_and_moved_body() {
+        let rig = humanoid();
+        let model = ArticulatedModel::from_rig(&rig, 1500).expect("model");
+        let h = model.height;
+        let tracker = Tracker::new(model.clone(), TrackOptions::default()).expect("tracker");
+        let turn = Quat::from_axis_angle(&Vector3::y_axis(), 2.3);
+        let shift = Vector3::new(1.1, 0.0, -0.8) * h;
+        let data: Vec<Point3> = tracker
+            .texture_positions()
+            .iter()
+            .map(|p| Point3::from(turn * p.coords + shift))
+            .collect();
+        let truth = moved(&model.start, &model.skeleton, &turn, &shift);
+        let init = initialise(&model, &TrackOptions::default(), &data).expect("initialises");
+        let a = model.skeleton.joint_positions(&init.pose);
+        let b = model.skeleton.joint_positions(&truth);
+        let error = a.iter().zip(&b).map(|(p, q)| (p - q).norm()).sum::<f64>() / a.len() as f64;
+        assert!(
+            error < 0.02 * h,
+            "mean joint error {:.2}%",
+            100.0 * error / h
+        );
+    }
 }
