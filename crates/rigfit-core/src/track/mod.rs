@@ -11,6 +11,7 @@
 //! surface instead of refreshed from the (noisy) data every frame.
 
 mod frame;
+mod initialise;
 mod m_step;
 mod model;
 mod options;
@@ -26,6 +27,7 @@ use crate::skeleton::{Pose, Skeleton};
 use parts::{PartModel, PlacedParts};
 use texture::TexturePoint;
 
+pub use initialise::{Initialisation, InitialiseOptions, Tried, initialise, initialise_with};
 pub use model::{bind_pose, texture_count};
 pub use options::{TextureSource, TrackOptions};
 
