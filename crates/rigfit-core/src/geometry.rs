@@ -82,6 +82,12 @@ impl Aabb {
     }
 }
 
+/// The mean of `points` (the origin when there are none).
+pub fn centroid(points: &[Point3]) -> Point3 {
+    let sum: Vector3 = points.iter().map(|p| p.coords).sum();
+    Point3::from(sum / points.len().max(1) as f64)
+}
+
 /// `count` points spread over the triangles `triangles` of `vertices` uniformly by area,
 /// each with the index of its triangle. Empty when the mesh has no area.
 pub fn sample_triangles(

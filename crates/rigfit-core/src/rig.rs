@@ -32,6 +32,12 @@ pub struct Rig {
     pub animations: Vec<Animation>,
 }
 
+/// Whether a body whose bounding box has extent `extent` stands along z: its y side is
+/// well under its z side and, with a skinned mesh (not `bare`), no longer than its x side.
+pub fn z_is_up(extent: &Vector3, bare: bool) -> bool {
+    extent.y < Z_UP_RATIO * extent.z && (bare || extent.y <= extent.x)
+}
+
 impl Rig {
     /// World points that describe the character's extent for `pose`: skinned mesh
     /// vertices when there is a mesh, otherwise joint positions.
@@ -67,7 +73,7 @@ impl Rig {
                 // A skinned mesh's thinnest side is its depth; a bare skeleton's box may be
                 // stretched by a root far from the body (a marker rig's origin).
                 let bare = !self.meshes.iter().any(|m| !m.positions.is_empty());
-                if e.y < Z_UP_RATIO * e.z && (bare || e.y <= e.x) {
+                if z_is_up(&e, bare) {
                     e.z
                 } else if e.y > 1e-9 {
                     e.y

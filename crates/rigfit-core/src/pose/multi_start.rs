@@ -5,8 +5,9 @@
 use super::annealing::{anneal, schedule};
 use super::fitting::Fitter;
 use super::setup::Setup;
+use crate::geometry::centroid;
 use crate::kinematics::{DofLayout, ForwardKinematics};
-use crate::math::{Matrix4, Point3, Quat, Trs, Vector3};
+use crate::math::{Matrix4, Quat, Trs, Vector3};
 use crate::skeleton::Pose;
 
 /// Headings tried about each candidate vertical axis.
@@ -25,10 +26,10 @@ pub(super) fn rigid_placements(setup: &Setup, root: usize) -> Vec<Pose> {
     let layout = DofLayout::with_active(skeleton, &only_root);
     // A rigid fit needs few points: every third stroke sample, every other model point.
     let thin = setup.thinned(3, 2);
-    let data_centre = centroid(&thin.strokes.points);
+    let data_centre = centroid(&thin.strokes.points).coords;
     let sigmas = schedule(setup.height, 0.3, 0.05, 6, false);
     let start_fk = ForwardKinematics::new(skeleton, setup.start);
-    let model_centre = centroid(&thin.model.world_points(&start_fk));
+    let model_centre = centroid(&thin.model.world_points(&start_fk)).coords;
     let parent = skeleton
         .joint(root)
         .parent
@@ -84,9 +85,4 @@ fn truncated_chamfer(setup: &Setup, pose: &Pose) -> f64 {
         })
         .sum::<f64>()
         / data.len().max(1) as f64
-}
-
-pub(super) fn centroid(points: &[Point3]) -> Vector3 {
-    let sum: Vector3 = points.iter().map(|p| p.coords).sum();
-    sum / points.len().max(1) as f64
 }

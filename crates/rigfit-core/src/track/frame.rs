@@ -3,7 +3,7 @@
 //! the model points toward their targets (eq. 20).
 
 use super::m_step::Pull;
-use super::{FrameFit, TextureSource, TrackError, Tracker};
+use super::{FrameFit, TextureSource, TrackError, Tracker, check_cloud};
 use crate::engine::fitting_loop::{
     EmModel, Expectation, Maximisation, Schedule, Stage, Widths, continued_trs, run_em,
 };
@@ -64,15 +64,7 @@ const SEEN_WEIGHT: f64 = 1e-3;
 impl Tracker {
     /// Aligns the model to one frame's points, starting from the previous frame's pose.
     pub fn track(&mut self, data: &[Point3]) -> Result<FrameFit, TrackError> {
-        if data.is_empty() {
-            return Err(TrackError::EmptyCloud);
-        }
-        if let Some(index) = data.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-            return Err(TrackError::NonFinite { index });
-        }
-        if let Some(index) = crate::math::first_out_of_range(data) {
-            return Err(TrackError::OutOfRange { index });
-        }
+        check_cloud(data)?;
         let h = self.model.height;
         let before = self.pose.clone();
         if self.options.prediction > 0.0

@@ -4,10 +4,12 @@
 //! wide `sigma`; then the best few refined with every joint free, `sigma` annealed from wide
 //! to the noise level; the hypothesis whose final E-step explains the most data wins.
 
-use super::{ArticulatedModel, TrackError, TrackOptions, Tracker};
+use super::{ArticulatedModel, TrackError, TrackOptions, Tracker, check_cloud};
 use crate::engine::{WeightedPoints, em_step};
+use crate::geometry::{Aabb, centroid};
 use crate::kinematics::DofLayout;
 use crate::math::{Point3, Quat, Vector3};
+use crate::rig::z_is_up;
 use crate::skeleton::{JointDof, Pose};
 
 /// Two root-only fits are one hypothesis when their roots are this close (fraction of the
@@ -120,15 +122,7 @@ pub fn initialise_with(
     settings: &InitialiseOptions,
     data: &[Point3],
 ) -> Result<Initialisation, TrackError> {
-    if data.is_empty() {
-        return Err(TrackError::EmptyCloud);
-    }
-    if let Some(index) = data.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-        return Err(TrackError::NonFinite { index });
-    }
-    if let Some(index) = crate::math::first_out_of_range(data) {
-        return Err(TrackError::OutOfRange { index });
-    }
+    check_cloud(data)?;
     let root_options = TrackOptions {
         max_motion: settings.root_sigma,
         noise: settings.root_floor,
@@ -159,7 +153,7 @@ pub fn initialise_with(
     }
     let up = up_axis(model);
     let score_sigma = settings.score_sigma * h;
-    let model_centre = mean(&tracker.texture_positions());
+    let model_centre = centroid(&tracker.texture_positions());
     let centres = data_centres(data, h);
 
     // 1. Position and heading: the root alone, from every heading and centre.
@@ -219,9 +213,6 @@ pub fn initialise_with(
         .collect();
     let mut best: Option<Hypothesis> = None;
     for hyp in kept {
-        tracker.options.prior_weight = settings.full_prior_weight;
-        tracker.options.max_motion = settings.full_sigma;
-        tracker.options.anneal_steps = settings.full_steps;
         let score = fit(&mut tracker, &hyp.pose, data, score_sigma);
         tracing::debug!(
             "initialise: heading {:.0} root score {:.3} -> {:.3}",
@@ -310,19 +301,10 @@ fn root_joints(model: &ArticulatedModel) -> Vec<usize> {
 /// The model's up axis: y, or z when its surface is much deeper in z than tall in y (as
 /// `Rig::height` decides).
 fn up_axis(model: &ArticulatedModel) -> nalgebra::Unit<Vector3> {
-    let points = &model.surface_samples;
-    let mut lo = Vector3::repeat(f64::INFINITY);
-    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
-    for p in points {
-        lo = lo.inf(&p.coords);
-        hi = hi.sup(&p.coords);
-    }
-    let e = hi - lo;
     let bare = model.surface_normals.is_none();
-    if points.is_empty() || !(e.y < 0.6 * e.z && (bare || e.y <= e.x)) {
-        Vector3::y_axis()
-    } else {
-        Vector3::z_axis()
+    match Aabb::from_points(&model.surface_samples) {
+        Some(bounds) if z_is_up(&bounds.extent(), bare) => Vector3::z_axis(),
+        _ => Vector3::y_axis(),
     }
 }
 
@@ -355,13 +337,8 @@ fn data_centres(data: &[Point3], height: f64) -> Vec<Point3> {
     if near.is_empty() {
         vec![median]
     } else {
-        vec![median, mean(&near)]
+        vec![median, centroid(&near)]
     }
-}
-
-fn mean(points: &[Point3]) -> Point3 {
-    let sum: Vector3 = points.iter().map(|p| p.coords).sum();
-    Point3::from(sum / points.len().max(1) as f64)
 }
 
 /// Whether two poses put their roots at the same place (world) and heading.

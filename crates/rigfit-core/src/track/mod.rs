@@ -49,6 +49,20 @@ pub enum TrackError {
     NothingMoves,
 }
 
+/// Whether a frame's points can be tracked: some, all finite and within range.
+pub(crate) fn check_cloud(data: &[Point3]) -> Result<(), TrackError> {
+    if data.is_empty() {
+        return Err(TrackError::EmptyCloud);
+    }
+    if let Some(index) = data.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(TrackError::NonFinite { index });
+    }
+    if let Some(index) = crate::math::first_out_of_range(data) {
+        return Err(TrackError::OutOfRange { index });
+    }
+    Ok(())
+}
+
 /// The articulated surface model of a rig.
 #[derive(Clone, Debug)]
 pub struct ArticulatedModel {
