@@ -32,3 +32,22 @@ def test_tracker_bad_input():
         rigfit.Tracker("rig.glb")
     with pytest.raises(rigfit.RigfitError, match="noise: expected a positive fraction"):
         rigfit.Tracker(rig, noise=0.0)
+
+
+def test_a_first_frame_away_from_the_start_pose_is_found_by_the_search():
+    rig = rigfit.load_rig(asset("assimp/BCN_Epileptic.glb"))
+    rot, tr = rig.sample(1.5)
+    # The person stands 1.6 m away, turned 150 degrees about the up axis.
+    a = np.radians(150.0)
+    turn = np.array([[np.cos(a), 0.0, np.sin(a)], [0.0, 1.0, 0.0], [-np.sin(a), 0.0, np.cos(a)]])
+    shift = np.array([1.3, 0.0, -0.9])
+    cloud = rigfit.Tracker(rig, rot, tr).surface_points() @ turn.T + shift
+    truth = rig.skeleton.joint_positions(rot, tr) @ turn.T + shift
+    fit = rigfit.Tracker(rig).track(cloud)
+    assert fit.start == "search"
+    error = np.linalg.norm(fit.positions - truth, axis=1).mean() / rig.height
+    assert error < 0.03, error
+    kept = rigfit.Tracker(rig, init="stored").track(cloud)
+    assert kept.start == "stored"
+    with pytest.raises(rigfit.RigfitError, match="init: expected 'auto', 'stored' or 'search'"):
+        rigfit.Tracker(rig, init="rest")

@@ -197,3 +197,140 @@ fn bad_frames_stop_with_one_line_and_keep_what_was_tracked() {
     ]);
     assert_bad_input(&o, Path::new("x.png"));
 }
+
+/// The rig as its file stores it (BCN_Epileptic in its bind pose) and a take where the
+/// person stands 1.6 m away, turned 150 degrees: `--init auto` finds the body, prints the
+/// choice and reports it; `--init stored` keeps the stored pose.
+#[test]
+fn a_take_away_from_the_stored_pose_starts_from_the_search() {
+    use rigfit_core::math::{Point3, Quat, Vector3};
+    let dir = tempfile::tempdir().expect("temp dir");
+    let options = rigfit_testkit::track_cases::SequenceOptions::default();
+    let mut suite = track_suites::suite("BCN_Epileptic", track_suites::FRAMES, &options);
+    suite.frames.truncate(6);
+    let turn = Quat::from_axis_angle(&Vector3::y_axis(), 150f64.to_radians());
+    let shift = Vector3::new(1.3, 0.0, -0.9);
+    let moved = |p: &Point3| Point3::from(turn * p.coords + shift);
+    let files: Vec<PathBuf> = suite
+        .frames
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            let path = dir.path().join(format!("frame_{k:04}.ply"));
+            let cloud = rigfit_core::TriMesh {
+                vertices: f.points.iter().map(moved).collect(),
+                ..rigfit_core::TriMesh::default()
+            };
+            rigfit_formats::ply::write_ply(&path, &cloud).expect("frame written");
+            path
+        })
+        .collect();
+    let rig = rigfit_testkit::assets::asset("assimp/BCN_Epileptic.glb");
+    let report = dir.path().join("track.json");
+    let o = rigfit(&args(
+        &["track", rig.to_str().expect("utf-8")],
+        &files,
+        &["--report", report.to_str().expect("utf-8")],
+    ));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let printed = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        printed.contains("first frame: started from the search"),
+        "{printed}"
+    );
+    let value: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).expect("report")).expect("json");
+    assert_eq!(value["start"]["mode"], "auto");
+    assert_eq!(value["start"]["chose"], "search");
+    // The last frame's joints are where the moved truth puts them.
+    let last = &value["frames"][5]["joints"];
+    let truth = suite.rig.skeleton.joint_positions(&suite.frames[5].truth);
+    let (mut sum, mut n) = (0.0, 0);
+    for joint in last.as_array().expect("joints") {
+        let j = suite
+            .rig
+            .skeleton
+            .find(joint["name"].as_str().expect("name"))
+            .expect("joint of the rig");
+        let p: Vec<f64> = joint["position"]
+            .as_array()
+            .expect("position")
+            .iter()
+            .map(|c| c.as_f64().expect("number"))
+            .collect();
+        sum += (Point3::new(p[0], p[1], p[2]) - moved(&truth[j])).norm();
+        n += 1;
+    }
+    let error = sum / n as f64 / suite.model.height;
+    assert!(error < 0.03, "mean joint error {:.2}%", 100.0 * error);
+
+    let o = rigfit(&args(
+        &["track", rig.to_str().expect("utf-8")],
+        &files[..1],
+        &[
+            "--init",
+            "stored",
+            "--report",
+            report.to_str().expect("utf-8"),
+        ],
+    ));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let value: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).expect("report")).expect("json");
+    assert_eq!(value["start"]["chose"], "stored");
+}
+
+/// `--joints` fixes the elbow: its bend stays the start pose's in every frame; a joints file
+/// naming no joint of the rig is one line and exit status 2.
+#[test]
+fn a_joints_file_fixes_a_joint_and_a_bad_one_is_refused() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (start, files, suite) = track_suites::write_sequence(dir.path(), "BCN_Epileptic", 3);
+    let joints = dir.path().join("joints.json");
+    std::fs::write(
+        &joints,
+        r#"{"joints": {"B_ForeArm_Left": {"dof": "fixed"}}}"#,
+    )
+    .expect("write");
+    let report = dir.path().join("track.json");
+    let s = |p: &Path| p.to_str().expect("utf-8").to_string();
+    let (start_s, joints_s, report_s) = (s(&start), s(&joints), s(&report));
+    let o = rigfit(&args(
+        &["track", &start_s],
+        &files,
+        &["--joints", &joints_s, "--report", &report_s],
+    ));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let value: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).expect("report")).expect("json");
+    let bend = |positions: &dyn Fn(&str) -> rigfit_core::Point3| {
+        let [a, b, c] = ["B_UpperArm_Left", "B_ForeArm_Left", "B_Hand_Left"].map(positions);
+        (b - a).angle(&(c - b))
+    };
+    let truth = suite.rig.skeleton.joint_positions(&suite.frames[0].truth);
+    let start_bend = bend(&|n| truth[suite.rig.skeleton.find(n).expect("joint")]);
+    for frame in value["frames"].as_array().expect("frames") {
+        let at = |n: &str| {
+            let joint = frame["joints"]
+                .as_array()
+                .expect("joints")
+                .iter()
+                .find(|j| j["name"] == n)
+                .expect("joint reported");
+            let p: Vec<f64> = joint["position"]
+                .as_array()
+                .expect("position")
+                .iter()
+                .map(|c| c.as_f64().expect("number"))
+                .collect();
+            rigfit_core::Point3::new(p[0], p[1], p[2])
+        };
+        assert!((bend(&at) - start_bend).abs() < 1e-6);
+    }
+    let bad = dir.path().join("bad_joints.json");
+    std::fs::write(&bad, r#"{"joints": {"Tail": {"dof": "ball"}}}"#).expect("write");
+    let bad_s = s(&bad);
+    let o = rigfit(&args(&["track", &start_s], &files, &["--joints", &bad_s]));
+    assert_bad_input(&o, &bad);
+    assert!(stderr(&o).contains("joints.Tail: the rig has no joint of that name"));
+}

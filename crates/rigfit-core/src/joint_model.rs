@@ -7,8 +7,9 @@
 //! and uses limits only to choose among poses that explain the strokes alike.
 
 use crate::animation::{Animation, ChannelTarget, Interpolation, quat_from_xyzw};
+use crate::kinematics::DofLayout;
 use crate::math::{Matrix3, Vector3};
-use crate::skeleton::{JointDof, JointKind, JointLimits, Skeleton};
+use crate::skeleton::{JointDof, JointKind, JointLimits, Pose, Skeleton};
 
 /// What one joint may do: its degrees of freedom and the limits of its rotation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -187,6 +188,16 @@ pub fn with_clip_ranges(skeleton: &Skeleton, animations: &[Animation]) -> Skelet
     ranged
 }
 
+/// `skeleton` with the joint model its clips show ([`joint_model_from_clips`]): hinges where
+/// the clips turn a joint about one axis only, and every turned joint's range as its limits.
+/// The skeleton tracking fits (`rigfit track`), the limits soft in its M-step.
+pub fn with_clip_model(skeleton: &Skeleton, animations: &[Animation]) -> Skeleton {
+    let model = joint_model_from_clips(skeleton, animations, &ClipModelOptions::default());
+    let mut modelled = skeleton.clone();
+    apply_joint_model(&mut modelled, &model);
+    modelled
+}
+
 /// Gives each joint its `model` entry (`None` leaves a joint as it is); returns how many
 /// joints changed.
 pub fn apply_joint_model(skeleton: &mut Skeleton, model: &[Option<JointSpec>]) -> usize {
@@ -212,6 +223,53 @@ pub fn limit_excess(dof: &JointDof, limits: &JointLimits, relative: &Vector3) ->
         }
         _ => Vector3::from_fn(|a, _| clamp_excess(relative[a], limits.min[a], limits.max[a])),
     }
+}
+
+/// The soft joint-limit residuals of `pose`: for each joint `layout` moves that has limits,
+/// its rotation's excess over them (relative to rest, [`limit_excess`]) per rotation
+/// parameter, handed to `add(residual, weight, column)` with derivative 1 (the excess moves
+/// with the joint's own rotation increment to first order). Shared by posing's fit and the
+/// tracker's M-step.
+pub fn limit_residuals(
+    layout: &DofLayout,
+    skeleton: &Skeleton,
+    pose: &Pose,
+    weight: f64,
+    add: &mut dyn FnMut(f64, f64, usize),
+) {
+    if weight <= 0.0 {
+        return;
+    }
+    for j in 0..layout.joint_count() {
+        joint_limit_residuals(layout, skeleton, pose, j, weight, add);
+    }
+}
+
+/// [`limit_residuals`] of one joint `j` (nothing when it does not move or has no limits).
+pub fn joint_limit_residuals(
+    layout: &DofLayout,
+    skeleton: &Skeleton,
+    pose: &Pose,
+    j: usize,
+    weight: f64,
+    add: &mut dyn FnMut(f64, f64, usize),
+) {
+    let Some(o) = layout.offset(j) else { return };
+    let joint = skeleton.joint(j);
+    let Some(limits) = joint.limits.as_ref().filter(|_| weight > 0.0) else {
+        return;
+    };
+    let relative = (joint.rest.rotation.inverse() * pose.local[j].rotation).scaled_axis();
+    let dof = layout.dof(j);
+    let excess = limit_excess(&dof, limits, &relative);
+    // A free joint's rotation follows its translation in the layout.
+    let (rotation, axes) = match dof {
+        JointDof::Ball => (o, 3),
+        JointDof::Free => (o + 3, 3),
+        JointDof::Hinge { .. } => (o, 1),
+        JointDof::Fixed => (o, 0),
+    };
+    (0..axes).for_each(|a| add(excess[a], weight, rotation + a));
 }
 
 #[cfg(test)]

@@ -3,7 +3,10 @@
 
 use numpy::PyArray2;
 use pyo3::prelude::*;
-use rigfit_core::track::{ArticulatedModel, TrackOptions, Tracker};
+use rigfit_core::joint_model::with_clip_model;
+use rigfit_core::track::{
+    ArticulatedModel, FrameStart, StartMode, Take, TakeOptions, TrackOptions,
+};
 use rigfit_core::{Point3, Rig};
 
 use crate::arrays::{rows, to_rows};
@@ -27,25 +30,46 @@ pub struct PyFrameFit {
     pub inliers: usize,
     /// EM iterations run.
     pub em_iterations: usize,
+    /// How the fit was found: ``"tracked"`` (on from the previous frame), ``"stored"`` /
+    /// ``"search"`` (the first frame, from the stored pose or from the search),
+    /// ``"recovered"`` (the frame's fit collapsed and the search found the body again) or
+    /// ``"collapsed"`` (it collapsed and the search found nothing better).
+    pub start: &'static str,
+}
+
+/// The name Python sees for how a frame's fit was found.
+fn start_name(start: &FrameStart) -> &'static str {
+    match start {
+        FrameStart::Tracked => "tracked",
+        FrameStart::Stored { .. } => "stored",
+        FrameStart::Searched { .. } => "search",
+        FrameStart::Collapsed {
+            recovered: true, ..
+        } => "recovered",
+        FrameStart::Collapsed { .. } => "collapsed",
+    }
 }
 
 /// Tracks one articulated model through a sequence of point clouds.
 ///
 /// Build it from a ``Rig`` (its skinned mesh gives the surface) or from a ``Skeleton`` and a
-/// start pose (``rotations`` / ``translations``; ellipsoids sized from the bone lengths). The
-/// start pose must be close to the first frame. ``noise`` and ``max_motion`` are fractions of
-/// the character's height; ``method`` is ``"rigfit"`` or ``"paper"``.
+/// start pose (``rotations`` / ``translations``; ellipsoids sized from the bone lengths).
+/// ``init`` says where the first frame starts: ``"auto"`` (the start pose when it explains
+/// the first frame, else the search for the body wherever it stands and however it is
+/// turned), ``"stored"`` or ``"search"``; ``recover``: search again on a frame whose fit
+/// collapsed. ``noise`` and ``max_motion`` are fractions of the character's height;
+/// ``method`` is ``"rigfit"`` or ``"paper"``.
 #[pyclass(module = "rigfit", name = "Tracker")]
 #[derive(Debug)]
 pub struct PyTracker {
-    tracker: Tracker,
+    take: Take,
     skeleton: PySkeleton,
 }
 
 #[pymethods]
 impl PyTracker {
     #[new]
-    #[pyo3(signature = (model, rotations=None, translations=None, *, noise=0.01, max_motion=0.04, method="rigfit"))]
+    #[pyo3(signature = (model, rotations=None, translations=None, *, noise=0.01, max_motion=0.04, method="rigfit", init="auto", recover=true))]
     fn new(
         py: Python<'_>,
         model: &Bound<'_, PyAny>,
@@ -54,7 +78,24 @@ impl PyTracker {
         noise: f64,
         max_motion: f64,
         method: &str,
+        init: &str,
+        recover: bool,
     ) -> PyResult<Self> {
+        let start = match init {
+            "auto" => StartMode::Auto,
+            "stored" => StartMode::Stored,
+            "search" => StartMode::Search,
+            other => {
+                return Err(error(format!(
+                    "init: expected 'auto', 'stored' or 'search', got '{other}'"
+                )));
+            }
+        };
+        let take_options = TakeOptions {
+            start,
+            recover,
+            ..TakeOptions::default()
+        };
         let mut options = match method {
             "rigfit" => TrackOptions::default(),
             "paper" => TrackOptions::paper(),
@@ -80,6 +121,8 @@ impl PyTracker {
             if rotations.is_some() || translations.is_some() {
                 r.pose = skeleton.pose(rotations, translations)?;
             }
+            // As `rigfit track` does: the clips' hinges, and their ranges as soft limits.
+            r.skeleton = with_clip_model(&r.skeleton, &r.animations);
             (r, skeleton)
         } else if let Ok(s) = model.cast::<PySkeleton>() {
             let skeleton = s.get().clone();
@@ -94,10 +137,13 @@ impl PyTracker {
         } else {
             return Err(error("model: expected a rigfit.Rig or a rigfit.Skeleton"));
         };
-        let tracker = py
-            .detach(|| ArticulatedModel::from_rig(&rig, 0).and_then(|m| Tracker::new(m, options)))
+        let take = py
+            .detach(|| {
+                ArticulatedModel::from_rig(&rig, 0)
+                    .and_then(|m| Take::new(m, options, take_options))
+            })
             .map_err(|e| error(format!("Tracker: {e}")))?;
-        Ok(Self { tracker, skeleton })
+        Ok(Self { take, skeleton })
     }
 
     /// Aligns the model to one frame's ``points`` (m, 3), starting from the previous frame's
@@ -107,10 +153,11 @@ impl PyTracker {
             .into_iter()
             .map(Point3::from)
             .collect();
-        let tracker = &mut self.tracker;
-        let fit = py
-            .detach(|| tracker.track(&data))
+        let take = &mut self.take;
+        let frame = py
+            .detach(|| take.track(&data))
             .map_err(|e| error(format!("track: {e}")))?;
+        let fit = frame.fit;
         let s = &self.skeleton;
         Ok(PyFrameFit {
             rotations: to_rows(py, &s.rotations(&fit.pose))?.unbind(),
@@ -119,18 +166,20 @@ impl PyTracker {
             inlier: fit.inlier,
             inliers: fit.inliers,
             em_iterations: fit.em_iterations,
+            start: start_name(&frame.start),
         })
     }
 
     /// World positions (n, 3) of the joints in the current pose.
     fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        to_rows(py, &self.skeleton.positions(self.tracker.pose()))
+        to_rows(py, &self.skeleton.positions(self.take.tracker().pose()))
     }
 
     /// Model surface points (k, 3) in the current pose (where the tracker expects data).
     fn surface_points<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let points: Vec<[f64; 3]> = self
-            .tracker
+            .take
+            .tracker()
             .texture_positions()
             .iter()
             .map(|p| p.coords.into())

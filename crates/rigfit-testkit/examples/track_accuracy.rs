@@ -3,7 +3,8 @@
 //! as published and with rigfit's additions one by one.
 //!
 //! `cargo run --release -p rigfit-testkit --example track_accuracy [SUITE...]` (`VERBOSE=1`
-//! prints every frame)
+//! prints every frame, `DEFAULTS_ONLY=1` runs rigfit's defaults alone, `LIMIT_WEIGHT` sets the soft
+//! limits' weight, `JOINT_MODEL=none` or `ranges` tracks without the clips' hinges, see `track_suites::tracked_rig`)
 
 use rigfit_testkit::track_suites;
 
@@ -12,7 +13,13 @@ use rigfit_testkit::track_cases::SequenceOptions;
 
 fn main() {
     let paper = TrackOptions::paper();
-    let rigfit = TrackOptions::default();
+    let mut rigfit = TrackOptions::default();
+    if let Some(w) = std::env::var("LIMIT_WEIGHT")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
+        rigfit.limit_weight = w;
+    }
     // The paper's method, then rigfit's additions one at a time (each on top of the
     // previous), ending with rigfit's defaults.
     let no_refresh = TrackOptions {
@@ -38,7 +45,7 @@ fn main() {
         coarse_to_fine: true,
         ..predicted.clone()
     };
-    let methods: Vec<(&str, TrackOptions)> = vec![
+    let mut methods: Vec<(&str, TrackOptions)> = vec![
         ("paper (EM, texture refreshed from data)", paper.clone()),
         (
             "paper + surface fit pass (eq. 21)",
@@ -54,6 +61,12 @@ fn main() {
         ("+ view-aware, coarse-to-fine matching", visible),
         ("rigfit (+ point-to-plane pulls)", rigfit),
     ];
+    // `DEFAULTS_ONLY=1`: rigfit's defaults alone (for comparing joint models, JOINT_MODEL).
+    let methods = if std::env::var("DEFAULTS_ONLY").is_ok() {
+        methods.split_off(methods.len() - 1)
+    } else {
+        methods
+    };
     let names: Vec<String> = std::env::args().skip(1).collect();
     let all = ["BCN_Epileptic", "Testwuson", "hand", "01_01"];
     let chosen: Vec<&'static str> = all

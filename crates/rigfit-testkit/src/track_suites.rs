@@ -11,6 +11,7 @@ use std::time::Instant;
 use crate::track_cases::{SequenceFrame, SequenceOptions, clip_poses, hand_motion, make_sequence};
 use rigfit_core::Pose;
 use rigfit_core::Rig;
+use rigfit_core::joint_model::{with_clip_model, with_clip_ranges};
 use rigfit_core::track::{ArticulatedModel, TrackOptions, Tracker};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 
@@ -55,7 +56,7 @@ pub fn suite(name: &'static str, frames: usize, options: &SequenceOptions) -> Tr
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(TrackOptions::default().model_points);
-    let model = ArticulatedModel::from_rig(&rig, count).expect("model");
+    let model = ArticulatedModel::from_rig(&tracked_rig(&rig), count).expect("model");
     let frames = make_sequence(&rig, &model.parts, &poses, options);
     TrackSuite {
         name,
@@ -63,6 +64,19 @@ pub fn suite(name: &'static str, frames: usize, options: &SequenceOptions) -> Tr
         model,
         frames,
     }
+}
+
+/// `rig` with the joint model `rigfit track` fits: the clips' hinges and soft limits
+/// ([`with_clip_model`]). `JOINT_MODEL=none` keeps every joint a free ball, `ranges` keeps
+/// them balls with the clips' ranges (for comparing the three).
+pub fn tracked_rig(rig: &Rig) -> Rig {
+    let mut modelled = rig.clone();
+    match std::env::var("JOINT_MODEL").as_deref() {
+        Ok("none") => {}
+        Ok("ranges") => modelled.skeleton = with_clip_ranges(&rig.skeleton, &rig.animations),
+        _ => modelled.skeleton = with_clip_model(&rig.skeleton, &rig.animations),
+    }
+    modelled
 }
 
 /// The four suites.

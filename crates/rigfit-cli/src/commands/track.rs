@@ -5,7 +5,10 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{anyhow, bail};
-use rigfit_core::track::{ArticulatedModel, FrameFit, TrackOptions, Tracker};
+use rigfit_core::joint_model::{apply_joint_model, with_clip_model};
+use rigfit_core::track::{
+    ArticulatedModel, FrameFit, FrameStart, StartMode, Take, TakeOptions, TrackOptions, Tracker,
+};
 use rigfit_core::{Point3, Pose};
 use rigfit_formats::files::{commit_all, stage};
 use rigfit_formats::mesh_file::read_mesh;
@@ -21,6 +24,28 @@ pub enum TrackMethod {
     Rigfit,
     /// The EM as published: texture points refreshed from the data every frame.
     Paper,
+}
+
+/// Where the first frame starts.
+#[derive(Debug, Clone, Copy, clap::ValueEnum, PartialEq, Eq)]
+pub enum InitMode {
+    /// The rig's stored pose when it explains the first frame; else the search's pose when
+    /// that explains it clearly better.
+    Auto,
+    /// The rig's stored pose, however far it is from the first frame.
+    Stored,
+    /// The search: the body found wherever it stands and however it is turned.
+    Search,
+}
+
+impl InitMode {
+    fn start_mode(self) -> StartMode {
+        match self {
+            InitMode::Auto => StartMode::Auto,
+            InitMode::Stored => StartMode::Stored,
+            InitMode::Search => StartMode::Search,
+        }
+    }
 }
 
 #[derive(Debug, clap::Args)]
@@ -53,6 +78,20 @@ pub struct TrackArgs {
     /// The largest motion of a point between frames, as a fraction of the height.
     #[arg(long)]
     pub max_motion: Option<f64>,
+    /// Where the first frame starts: `auto` keeps the stored pose when it explains the first
+    /// frame and otherwise searches for the body (position, heading, then limbs).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub init: InitMode,
+    /// A joints file (JSON, see README): which joints are hinges (with their axis) or
+    /// fixed, and their limits, overriding what the rig's clips show (by default a joint
+    /// the clips turn about one axis only is a hinge, and every joint the clips turn keeps
+    /// softly to the range they show).
+    #[arg(long, value_name = "FILE.json")]
+    pub joints: Option<PathBuf>,
+    /// Never search again on a frame whose fit collapsed (by default such a frame, with
+    /// inliers far below the frames before it, is searched for and the report marks it).
+    #[arg(long)]
+    pub no_recovery: bool,
     /// Frames per second of the output animation.
     #[arg(long, default_value_t = 30.0)]
     pub fps: f64,
@@ -123,7 +162,67 @@ pub fn read_points(path: &Path) -> anyhow::Result<Vec<Point3>> {
 struct Tracked {
     file: String,
     fit: FrameFit,
+    start: FrameStart,
     seconds: f64,
+}
+
+/// The line saying where the first frame started, and the report's `start` object.
+fn first_frame_choice(start: &FrameStart, mode: InitMode) -> (String, serde_json::Value) {
+    let mode_name = format!("{mode:?}").to_lowercase();
+    match *start {
+        FrameStart::Searched { score, stored } => {
+            let why = match stored {
+                Some(s) => format!(
+                    "the stored pose explained {:.0}% of the points, the search {:.0}%",
+                    100.0 * s,
+                    100.0 * score
+                ),
+                None => format!(
+                    "--init search; it explains {:.0}% of the points",
+                    100.0 * score
+                ),
+            };
+            (
+                format!("first frame: started from the search ({why})\n"),
+                json!({ "mode": mode_name, "chose": "search", "score": score, "stored_score": stored }),
+            )
+        }
+        FrameStart::Stored { score, searched } => {
+            let why = match searched {
+                Some(s) => format!(
+                    "it explained {:.0}% of the points, the search {:.0}%",
+                    100.0 * score,
+                    100.0 * s
+                ),
+                None => format!("it explains {:.0}% of the points", 100.0 * score),
+            };
+            (
+                format!("first frame: started from the rig's stored pose ({why})\n"),
+                json!({ "mode": mode_name, "chose": "stored", "score": score, "search_score": searched }),
+            )
+        }
+        _ => (String::new(), json!({ "mode": mode_name })),
+    }
+}
+
+/// The report's fields for a frame that collapsed (nothing for other frames).
+fn collapse_json(start: &FrameStart) -> Option<serde_json::Value> {
+    match *start {
+        FrameStart::Collapsed {
+            inliers,
+            expected,
+            tracked_score,
+            search_score,
+            recovered,
+        } => Some(json!({
+            "inliers": inliers,
+            "expected_inliers": expected,
+            "tracked_score": tracked_score,
+            "search_score": search_score,
+            "recovered": recovered,
+        })),
+        _ => None,
+    }
 }
 
 /// Tracks the frames and writes the outputs; returns the summary to print. Frames tracked
@@ -152,6 +251,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<String> {
     let mut inputs: Vec<&Path> = vec![&args.rig];
     inputs.extend(args.frames.iter().map(PathBuf::as_path));
     inputs.extend(args.truth.as_deref());
+    inputs.extend(args.joints.as_deref());
     super::check_files(&inputs, &outputs)?;
     let rig_options = RigOptions {
         skin: args.skin.clone(),
@@ -181,10 +281,22 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<String> {
         }
         options.max_motion = m.max(args.noise);
     }
-    let model = ArticulatedModel::from_rig(rig, options.model_points)
+    // The joint model the tracker fits: the clips' hinges and ranges, then the joints file.
+    let mut modelled = rig.clone();
+    modelled.skeleton = with_clip_model(&rig.skeleton, &rig.animations);
+    if let Some(path) = &args.joints {
+        let model = rigfit_formats::joints_file::read_joints_file(path, &rig.skeleton)?;
+        apply_joint_model(&mut modelled.skeleton, &model);
+    }
+    let model = ArticulatedModel::from_rig(&modelled, options.model_points)
         .map_err(|e| anyhow!("{}: {e}", args.rig.display()))?;
-    let mut tracker =
-        Tracker::new(model, options).map_err(|e| anyhow!("{}: {e}", args.rig.display()))?;
+    let take_options = TakeOptions {
+        start: args.init.start_mode(),
+        recover: !args.no_recovery,
+        ..TakeOptions::default()
+    };
+    let mut take = Take::new(model, options, take_options)
+        .map_err(|e| anyhow!("{}: {e}", args.rig.display()))?;
 
     let shown = rigfit_render::pick_frames(args.frames.len(), 8);
     let mut shown_clouds: Vec<(usize, Vec<Point3>)> = Vec::new();
@@ -208,14 +320,15 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<String> {
             }
         };
         let t0 = Instant::now();
-        let fit = match tracker.track(&points) {
-            Ok(fit) => fit,
+        let frame = match take.track(&points) {
+            Ok(frame) => frame,
             Err(e) => {
                 failure = Some(anyhow!("{}: {e}", path.display()));
                 break;
             }
         };
         let seconds = t0.elapsed().as_secs_f64();
+        let fit = frame.fit;
         progress.set_message(format!("{} inliers", fit.inliers));
         progress.inc(1);
         if args.render.is_some() && shown.contains(&k) {
@@ -224,6 +337,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<String> {
         tracked.push(Tracked {
             file: path.display().to_string(),
             fit,
+            start: frame.start,
             seconds,
         });
     }
@@ -241,16 +355,24 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<String> {
         if let Some(report) = &args.report {
             let frames: Vec<serde_json::Value> = tracked
                 .iter()
-                .map(|t| track_frame_json(rig, &t.fit.pose, &t.file, t.fit.inliers, t.seconds))
+                .map(|t| {
+                    let mut frame =
+                        track_frame_json(rig, &t.fit.pose, &t.file, t.fit.inliers, t.seconds);
+                    if let Some(collapse) = collapse_json(&t.start) {
+                        frame["collapse"] = collapse;
+                    }
+                    frame
+                })
                 .collect();
+            let start = first_frame_choice(&tracked[0].start, args.init).1;
             staged.push(stage(
                 report,
-                to_text(&json!({ "frames": frames })).as_bytes(),
+                to_text(&json!({ "start": start, "frames": frames })).as_bytes(),
             )?);
         }
         if let Some(picture) = &args.render {
             let image = sheet(
-                &tracker,
+                take.tracker(),
                 &tracked,
                 &shown_clouds,
                 &args.picture,
@@ -261,7 +383,36 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<String> {
         }
         commit_all(staged)?;
         let total: f64 = tracked.iter().map(|t| t.seconds).sum();
-        summary = format!(
+        summary = first_frame_choice(&tracked[0].start, args.init).0;
+        let collapsed: Vec<(usize, bool)> = tracked
+            .iter()
+            .enumerate()
+            .filter_map(|(k, t)| match t.start {
+                FrameStart::Collapsed { recovered, .. } => Some((k, recovered)),
+                _ => None,
+            })
+            .collect();
+        if !collapsed.is_empty() {
+            let list = |recovered: bool| {
+                collapsed
+                    .iter()
+                    .filter(|c| c.1 == recovered)
+                    .map(|c| c.0.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            let (found, kept) = (list(true), list(false));
+            if !found.is_empty() {
+                summary +=
+                    &format!("frames whose fit collapsed, found again by the search: {found}\n");
+            }
+            if !kept.is_empty() {
+                summary += &format!(
+                    "frames whose fit collapsed, the search found nothing better: {kept}\n"
+                );
+            }
+        }
+        summary += &format!(
             "tracked {} of {} frames with {} in {:.1} ms per frame (mean {:.0} inliers)\n",
             tracked.len(),
             args.frames.len(),

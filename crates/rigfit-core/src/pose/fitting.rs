@@ -7,7 +7,7 @@
 use super::chains::{self, Assignment};
 use super::setup::Setup;
 use crate::engine::{NormalSink, SkeletonNormalEquations, SubtreeMoments};
-use crate::joint_model::limit_excess;
+use crate::joint_model::joint_limit_residuals;
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::Point3;
 use crate::skeleton::{JointDof, Pose};
@@ -105,22 +105,9 @@ impl Fitter {
         let limit_weight = self.limit_weight;
         for j in 0..skeleton.len() {
             let Some(o) = layout.offset(j) else { continue };
-            let joint = skeleton.joint(j);
-            if let Some(limits) = joint.limits.as_ref().filter(|_| limit_weight > 0.0) {
-                // The rotation's excess over the joint's limits (relative to rest), per axis.
-                let relative =
-                    (joint.rest.rotation.inverse() * pose.local[j].rotation).scaled_axis();
-                let dof = layout.dof(j);
-                let excess = limit_excess(&dof, limits, &relative);
-                // A free joint's rotation follows its translation in the layout.
-                let (rotation, axes) = match dof {
-                    JointDof::Ball => (o, 3),
-                    JointDof::Free => (o + 3, 3),
-                    JointDof::Hinge { .. } => (o, 1),
-                    JointDof::Fixed => (o, 0),
-                };
-                (0..axes).for_each(|a| scalar(&mut ne, excess[a], limit_weight, rotation + a, 1.0));
-            }
+            joint_limit_residuals(layout, skeleton, pose, j, limit_weight, &mut |r, w, col| {
+                scalar(&mut ne, r, w, col, 1.0)
+            });
             // Phi(p): rotation vectors away from the start pose, per joint and axis.
             let start = &setup.start.local[j];
             let delta = (start.rotation.inverse() * pose.local[j].rotation).scaled_axis();

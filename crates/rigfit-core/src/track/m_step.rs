@@ -1,9 +1,10 @@
 //! The M-step: Levenberg-Marquardt on the weighted pulls of eq. (20) (or eq. 21) plus a
-//! rotation prior toward the frame's start pose.
+//! rotation prior toward the frame's start pose and the joints' soft limits.
 
 use super::Tracker;
 use super::texture::TexturePoint;
 use crate::engine::{NormalSink, SkeletonNormalEquations, SubtreeMoments};
+use crate::joint_model::limit_residuals;
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Point3, Vector3};
 use crate::skeleton::{JointDof, Pose};
@@ -23,7 +24,7 @@ const EXACT_BLEND_MAX: f64 = 0.95;
 
 impl Tracker {
     /// Levenberg-Marquardt steps on `sum w |x(theta) - target|^2` (eq. 20 or 21) plus the
-    /// rotation prior toward `start`.
+    /// rotation prior toward `start` and each limited joint's excess over its limits.
     /// With `exact_blend`, blended points get their exact Jacobian; otherwise their
     /// dominant joint's (cheaper, slightly biased: for the annealing levels above the
     /// noise level).
@@ -49,6 +50,7 @@ impl Tracker {
         };
         let inv_h = 1.0 / self.model.height;
         let prior = self.options.prior_weight;
+        let limits = self.options.limit_weight;
         let layout = &self.layout;
         let objective = |pose: &Pose,
                          fk: &ForwardKinematics,
@@ -86,6 +88,13 @@ impl Tracker {
                     rotation_prior(layout, start, pose, prior, &mut |r, w, col| {
                         ne.add_scalar(r, w, col, 1.0)
                     });
+                    // Only the axes outside their limits: inside, the hinge-shaped cost is
+                    // flat and a zero row would only damp the joint.
+                    limit_residuals(layout, skeleton, pose, limits, &mut |r, w, col| {
+                        if r != 0.0 {
+                            ne.add_scalar(r, w, col, 1.0)
+                        }
+                    });
                     ne.cost()
                 }
                 None => {
@@ -94,6 +103,9 @@ impl Tracker {
                         cost += pull.weight * r.norm_squared();
                     }
                     rotation_prior(layout, start, pose, prior, &mut |r, w, _| cost += w * r * r);
+                    limit_residuals(layout, skeleton, pose, limits, &mut |r, w, _| {
+                        cost += w * r * r
+                    });
                     cost
                 }
             }
@@ -206,5 +218,51 @@ mod tests {
             .map(|(p, q)| (p - q).norm())
             .fold(0.0, f64::max);
         assert!(err < 1e-3 * rig.height(), "largest joint error {err}");
+    }
+
+    /// Data pulling a joint far outside its limits: with the soft limits the fit stops near
+    /// them; without them it follows the data.
+    #[test]
+    fn soft_limits_hold_a_joint_the_data_pull_outside() {
+        use crate::skeleton::JointLimits;
+        let mut rig = humanoid();
+        let elbow = rig.skeleton.find("LeftForeArm").expect("elbow");
+        let limits = JointLimits {
+            min: Vector3::from_element(-0.2),
+            max: Vector3::from_element(0.2),
+        };
+        rig.skeleton.set_dof(elbow, JointDof::Ball, Some(limits));
+        let model = ArticulatedModel::from_rig(&rig, 1500).expect("model");
+        let mut truth = rig.pose.clone();
+        truth.local[elbow].rotation *= Quat::from_scaled_axis(Vector3::new(0.0, 0.0, 1.2));
+        let excess = |weight: f64| {
+            let options = TrackOptions {
+                prior_weight: 0.0,
+                limit_weight: weight,
+                ..TrackOptions::default()
+            };
+            let mut tracker = Tracker::new(model.clone(), options).expect("tracker");
+            let fk = ForwardKinematics::new(&rig.skeleton, &truth);
+            let pulls: Vec<Pull> = tracker
+                .texture
+                .iter()
+                .map(|t| Pull {
+                    point: *t,
+                    target: t.world(&fk),
+                    weight: 1.0,
+                })
+                .collect();
+            tracker.fit(&pulls, &rig.pose, 30, true, 1.0);
+            let joint = rig.skeleton.joint(elbow);
+            let relative =
+                (joint.rest.rotation.inverse() * tracker.pose.local[elbow].rotation).scaled_axis();
+            crate::joint_model::limit_excess(&JointDof::Ball, &limits, &relative).norm()
+        };
+        let (free, held) = (excess(0.0), excess(1000.0));
+        assert!(
+            free > 0.8,
+            "without limits the elbow follows the data: {free}"
+        );
+        assert!(held < 0.1, "with soft limits it stays near them: {held}");
     }
 }

@@ -17,6 +17,7 @@ mod model;
 mod options;
 pub mod parts;
 mod refine;
+mod take;
 pub mod texture;
 mod tracker;
 
@@ -30,6 +31,7 @@ use texture::TexturePoint;
 pub use initialise::{Initialisation, InitialiseOptions, Tried, initialise, initialise_with};
 pub use model::{bind_pose, texture_count};
 pub use options::{TextureSource, TrackOptions};
+pub use take::{FrameStart, StartMode, Take, TakeFrame, TakeOptions};
 
 /// Why a frame cannot be tracked.
 #[derive(Debug, thiserror::Error, PartialEq)]

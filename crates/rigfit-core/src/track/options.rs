@@ -41,6 +41,9 @@ pub struct TrackOptions {
     pub coarse_to_fine: bool,
     /// Weight of the prior keeping joint rotations near the frame's start pose.
     pub prior_weight: f64,
+    /// Weight of the soft joint limits: each limited joint's rotation excess over its
+    /// limits (radians, relative to rest) squared, as the skeleton's `limits` give them.
+    pub limit_weight: f64,
     /// How many texture points the model has (0: from the surface's area).
     pub model_points: usize,
     /// Above the noise level, match only the texture points the data supported at the end
@@ -68,6 +71,7 @@ impl TrackOptions {
             visible_only: false,
             point_to_plane: false,
             over_relaxation: 1.0,
+            limit_weight: 0.0,
             ..Self::default()
         }
     }
@@ -89,6 +93,7 @@ impl Default for TrackOptions {
             prediction: 0.5,
             coarse_to_fine: true,
             prior_weight: 0.02,
+            limit_weight: 1.0,
             model_points: 0,
             visible_only: true,
             point_to_plane: true,

@@ -184,6 +184,9 @@ class FrameFit:
     inlier: list[bool]
     inliers: int
     em_iterations: int
+    start: Literal["tracked", "stored", "search", "recovered", "collapsed"]
+    """How the fit was found: on from the previous frame; the first frame from the stored
+    pose or from the search; a collapsed frame found again by the search, or not."""
 
 class Tracker:
     """Articulated tracking (Dewaele et al. 2006) through point clouds, frame by frame."""
@@ -197,9 +200,14 @@ class Tracker:
         noise: float = 0.01,
         max_motion: float = 0.04,
         method: Literal["rigfit", "paper"] = "rigfit",
+        init: Literal["auto", "stored", "search"] = "auto",
+        recover: bool = True,
     ) -> None:
-        """From a ``Rig`` (its skinned mesh) or a ``Skeleton`` and a start pose close to the
-        first frame. ``noise`` / ``max_motion``: fractions of the height."""
+        """From a ``Rig`` (its skinned mesh) or a ``Skeleton`` and a start pose.
+        ``init="auto"`` keeps the start pose when it explains the first frame and otherwise
+        searches for the body (anywhere, turned any way); ``"stored"`` always keeps it,
+        ``"search"`` always searches. ``recover``: search again on a frame whose fit
+        collapsed. ``noise`` / ``max_motion``: fractions of the height."""
     def track(self, points: ArrayLike) -> FrameFit:
         """Aligns the model to one frame's points (m, 3)."""
     def positions(self) -> Float2D:
