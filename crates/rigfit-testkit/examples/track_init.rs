@@ -6,9 +6,10 @@
 //! mean joint error from frame 5 on and the frames above 10% from frame 5 on.
 //!
 //! `cargo run --release -p rigfit-testkit --example track_init [SUITE...]`
-//! (`SEEDS=5` motions per suite, `POINTS=2000` points per frame, `VERBOSE=1` prints every
+//! (`SEEDS=5` motions per suite, `ANY_UP=0` headings about the model's up axis only,
+//! SCREEN_SIGMA, CENTRES, LAID_FITS, LAID_KEPT, LAID_MARGIN, `POINTS=2000` points per frame, `VERBOSE=1` prints every
 //! hypothesis the initialisation tried; HEADINGS, ROOT_SIGMA, ROOT_FLOOR, KEEP, FULL_SIGMA,
-//! FULL_STEPS, FULL_PRIOR, SCORE_SIGMA, PASSES, REFINE_SIGMA, REFINE_STEPS override `InitialiseOptions`)
+//! FULL_STEPS, FULL_PRIOR, SCORE_SIGMA, PASSES, REFINE_SIGMA, REFINE_STEPS, SWINGS=1 (limb swings), SWING_SIGMA, SWING_REACH, SWING_DIAGONALS=0 override `InitialiseOptions`)
 
 use std::time::Instant;
 
@@ -63,6 +64,12 @@ fn main() {
     let d = InitialiseOptions::default();
     let settings = InitialiseOptions {
         headings: env_usize("HEADINGS", d.headings),
+        any_up: env_usize("ANY_UP", usize::from(d.any_up)) == 1,
+        centres: env_usize("CENTRES", d.centres),
+        screen_sigma: env_f64("SCREEN_SIGMA", d.screen_sigma),
+        laid_fits: env_usize("LAID_FITS", d.laid_fits),
+        laid_kept: env_usize("LAID_KEPT", d.laid_kept),
+        laid_margin: env_f64("LAID_MARGIN", d.laid_margin),
         root_sigma: env_f64("ROOT_SIGMA", d.root_sigma),
         root_floor: env_f64("ROOT_FLOOR", d.root_floor),
         keep: env_usize("KEEP", d.keep),
@@ -73,6 +80,17 @@ fn main() {
         full_passes: env_usize("PASSES", d.full_passes),
         refine_sigma: env_f64("REFINE_SIGMA", d.refine_sigma),
         refine_steps: env_usize("REFINE_STEPS", d.refine_steps),
+        limb_swings: if env_usize("SWINGS", 0) == 0 {
+            None
+        } else {
+            let s = d.limb_swings.clone().unwrap_or_default();
+            Some(rigfit_core::track::LimbSwingOptions {
+                sigma: env_f64("SWING_SIGMA", s.sigma),
+                reach: env_f64("SWING_REACH", s.reach),
+                diagonals: env_usize("SWING_DIAGONALS", 1) == 1,
+                ..s
+            })
+        },
         ..d
     };
     let sequence = SequenceOptions {
@@ -153,6 +171,18 @@ fn main() {
                             );
                         }
                     }
+                }
+            }
+            if std::env::var("JOINTS").as_deref() == Ok("init") {
+                let a = rig.skeleton.joint_positions(&init.pose);
+                let b = rig.skeleton.joint_positions(&frames[0].1);
+                eprintln!("  initialised pose:");
+                for j in rig.reported_joints() {
+                    eprintln!(
+                        "    {:<16} {:.1}%",
+                        rig.skeleton.joint(j).name,
+                        100.0 * (a[j] - b[j]).norm() / h
+                    );
                 }
             }
             let mut tracker = Tracker::new(suite.model.clone(), options.clone()).expect("tracker");

@@ -29,6 +29,7 @@ pub mod surface_cases;
 pub mod sweep;
 pub mod targets;
 pub mod track_cases;
+pub mod track_corpus;
 pub mod track_suites;
 
 pub use corpus::{Corpus, CorpusError, CorpusRig, Half, RigEntry, RigKind, StartPose};

@@ -4,8 +4,9 @@
 //! wide `sigma`; then the best few refined with every joint free, `sigma` annealed from wide
 //! to the noise level; the hypothesis whose final E-step explains the most data wins.
 
+use super::limb_swings::{LimbSwingOptions, swing_limbs};
 use super::{ArticulatedModel, TrackError, TrackOptions, Tracker, check_cloud};
-use crate::engine::{WeightedPoints, em_step};
+use crate::engine::{EmStep, PointGrid, WeightedPoints, em_step};
 use crate::geometry::{Aabb, centroid};
 use crate::kinematics::DofLayout;
 use crate::math::{Point3, Quat, Vector3};
@@ -17,12 +18,28 @@ use crate::skeleton::{JointDof, Pose};
 const SAME_PLACE: f64 = 0.05;
 const SAME_TURN: f64 = 0.35;
 
+/// Laid placements are screened on at most this many data and texture points.
+const SCREEN_POINTS: usize = 500;
+
 /// The initialisation's settings. Lengths are fractions of the character's height.
 #[derive(Clone, Debug, PartialEq)]
 pub struct InitialiseOptions {
     /// Headings tried about the up axis (evenly spaced): the root-only EM at a wide `sigma`
     /// brings a start within half the spacing to the right heading.
     pub headings: usize,
+    /// Also try the model laid with its up axis along each world axis (a flat hand, a low
+    /// quadruped, a scan whose up is not the rig's): those turns are screened by one E-step
+    /// at `screen_sigma` and the best `laid_fits` get the root-alone EM beside the headings.
+    pub any_up: bool,
+    /// Centres of the data tried (1: the coordinate-wise median; 2: also the mean of the
+    /// points near it).
+    pub centres: usize,
+    pub screen_sigma: f64,
+    pub laid_fits: usize,
+    /// Laid placements carried on to the every-joint fit beside the `keep` upright ones;
+    /// one wins only when it explains `laid_margin` (share of the points) more.
+    pub laid_kept: usize,
+    pub laid_margin: f64,
     /// Root-only EM: `sigma` from `root_sigma` down to `root_floor` in `root_steps`
     /// geometric steps.
     pub root_sigma: f64,
@@ -45,12 +62,22 @@ pub struct InitialiseOptions {
     /// The width at which hypotheses are compared: the data's summed inlier posteriors of
     /// one E-step (eq. 17) at this `sigma`, over every texture point.
     pub score_sigma: f64,
+    /// After the winner's first every-joint pass, its limbs swung to where they explain
+    /// the data best (`None`: not tried, the default: measured in BENCHMARKS.md, they help
+    /// some takes and hurt others, and cost up to a second).
+    pub limb_swings: Option<LimbSwingOptions>,
 }
 
 impl Default for InitialiseOptions {
     fn default() -> Self {
         Self {
             headings: 8,
+            any_up: true,
+            centres: 1,
+            screen_sigma: 0.15,
+            laid_fits: 8,
+            laid_kept: 2,
+            laid_margin: 0.01,
             root_sigma: 0.3,
             root_floor: 0.03,
             root_steps: 5,
@@ -62,6 +89,7 @@ impl Default for InitialiseOptions {
             refine_sigma: 0.06,
             refine_steps: 4,
             score_sigma: 0.03,
+            limb_swings: None,
         }
     }
 }
@@ -101,6 +129,8 @@ struct Hypothesis {
     centre: usize,
     pose: Pose,
     score: f64,
+    /// The model laid with its up axis along another world axis ([`InitialiseOptions::any_up`]).
+    laid: bool,
 }
 
 /// The pose of a first frame `data` from `model`'s start pose, by EM from several
@@ -154,38 +184,75 @@ pub fn initialise_with(
     let up = up_axis(model);
     let score_sigma = settings.score_sigma * h;
     let model_centre = centroid(&tracker.texture_positions());
-    let centres = data_centres(data, h);
+    let mut centres = data_centres(data, h);
+    centres.truncate(settings.centres.max(1));
 
-    // 1. Position and heading: the root alone, from every heading and centre.
+    // 1. Position and orientation: every heading about the model's up axis on every
+    // centre, and with `any_up` the best `laid_fits` of the model laid with its up axis
+    // along each world axis (screened by one E-step at a wide width); each gets the
+    // root-alone EM.
     tracker.layout = root_layout;
     tracker.normal = None;
-    let mut root_fits: Vec<Hypothesis> = Vec::new();
+    let headings = settings.headings.max(1);
+    let turns = orientations(&up, headings, settings.any_up);
+    let screen_sigma = settings.screen_sigma * h;
+    let screen_data: Vec<Point3> = data
+        .iter()
+        .step_by(data.len().div_ceil(SCREEN_POINTS).max(1))
+        .copied()
+        .collect();
+    let (mut grid, mut em) = (PointGrid::default(), EmStep::default());
+    let mut placements: Vec<(f64, usize, Pose)> = Vec::new();
+    let mut laid: Vec<(f64, usize, Pose, f64)> = Vec::new();
     for (c, centre) in centres.iter().enumerate() {
-        for k in 0..settings.headings.max(1) {
-            let heading = std::f64::consts::TAU * k as f64 / settings.headings.max(1) as f64;
-            let turn = Quat::from_axis_angle(&up, heading);
+        for (k, &(heading, turn)) in turns.iter().enumerate() {
             let shift = centre.coords - turn * model_centre.coords;
             let start = moved(&model.start, skeleton, &turn, &shift);
-            let score = fit(&mut tracker, &start, data, score_sigma);
-            root_fits.push(Hypothesis {
-                heading,
-                centre: c,
-                pose: tracker.pose.clone(),
-                score,
-            });
+            if k < headings {
+                placements.push((heading, c, start));
+            } else {
+                tracker.set_pose(&start);
+                let screened = screen(&tracker, &screen_data, screen_sigma, &mut grid, &mut em);
+                laid.push((heading, c, start, screened));
+            }
         }
     }
+    laid.sort_by(|a, b| b.3.total_cmp(&a.3));
+    placements.extend(
+        laid.into_iter()
+            .take(settings.laid_fits)
+            .map(|(heading, c, start, _)| (heading, c, start)),
+    );
+    let upright_count = headings * centres.len();
+    let mut root_fits: Vec<Hypothesis> = Vec::new();
+    for (i, (heading, c, start)) in placements.into_iter().enumerate() {
+        let score = fit(&mut tracker, &start, data, score_sigma);
+        root_fits.push(Hypothesis {
+            heading,
+            centre: c,
+            pose: tracker.pose.clone(),
+            score,
+            laid: i >= upright_count,
+        });
+    }
     root_fits.sort_by(|a, b| b.score.total_cmp(&a.score));
-    let mut kept: Vec<Hypothesis> = Vec::new();
-    for hyp in &root_fits {
-        if kept.len() == settings.keep.max(1) {
-            break;
-        }
-        if !kept
-            .iter()
-            .any(|k| same_place(skeleton, &k.pose, &hyp.pose, &roots, h))
-        {
-            kept.push(hyp.clone());
+    // Indices into `root_fits` of the distinct placements kept: the best `keep` upright
+    // and the best `laid_kept` laid (a laid body can explain a floor's clutter better at
+    // the root-alone stage than the upright truth does; the every-joint fit decides).
+    let mut kept: Vec<usize> = Vec::new();
+    for (laid, count) in [(false, settings.keep.max(1)), (true, settings.laid_kept)] {
+        let first = kept.len();
+        for (i, hyp) in root_fits.iter().enumerate() {
+            if kept.len() - first == count {
+                break;
+            }
+            if hyp.laid == laid
+                && !kept
+                    .iter()
+                    .any(|&k| same_place(skeleton, &root_fits[k].pose, &hyp.pose, &roots, h))
+            {
+                kept.push(i);
+            }
         }
     }
 
@@ -212,7 +279,8 @@ pub fn initialise_with(
         })
         .collect();
     let mut best: Option<Hypothesis> = None;
-    for hyp in kept {
+    for i in kept {
+        let hyp = &root_fits[i];
         let score = fit(&mut tracker, &hyp.pose, data, score_sigma);
         tracing::debug!(
             "initialise: heading {:.0} root score {:.3} -> {:.3}",
@@ -220,23 +288,32 @@ pub fn initialise_with(
             hyp.score,
             score
         );
-        if let Some(t) = tried
-            .iter_mut()
-            .find(|t| t.heading == hyp.heading && t.centre == hyp.centre)
+        tried[i].full_score = Some(score);
+        tried[i].pose.clone_from(&tracker.pose);
+        // A laid body must explain clearly more than an upright one (and an upright one
+        // only as much as a laid one) to win: the rig's own up axis is the likelier.
+        let handicap = |h: &Hypothesis| if h.laid { settings.laid_margin } else { 0.0 };
+        if best
+            .as_ref()
+            .is_none_or(|b| score - handicap(hyp) > b.score - handicap(b))
         {
-            t.full_score = Some(score);
-            t.pose.clone_from(&tracker.pose);
-        }
-        if best.as_ref().is_none_or(|b| score > b.score) {
             best = Some(Hypothesis {
                 heading: hyp.heading,
                 centre: hyp.centre,
                 pose: tracker.pose.clone(),
                 score,
+                laid: hyp.laid,
             });
         }
     }
     let mut best = best.ok_or(TrackError::NothingMoves)?;
+    // Limbs the first pass left far from their data (a T-pose's arms against arms that
+    // hang down) swung where they explain it best, before the refinement passes.
+    if let Some(swings) = &settings.limb_swings {
+        let (pose, moved) = swing_limbs(&mut tracker, &best.pose, data, swings);
+        tracing::debug!("initialise: {moved} limbs swung");
+        best.pose = pose;
+    }
     // Further passes on the winner from its pose (the prior now toward it, the tracker's
     // weight), from a narrower width: limbs that came only part of the way go on. The
     // choice is made before them: the stronger prior of the first pass keeps a body fitted
@@ -254,6 +331,29 @@ pub fn initialise_with(
         heading: best.heading,
         tried,
     })
+}
+
+/// A laid placement's screening score: the share of `data` one E-step (eq. 17) at `sigma`
+/// explains, with at most [`SCREEN_POINTS`] texture points (evenly strided).
+fn screen(
+    tracker: &Tracker,
+    data: &[Point3],
+    sigma: f64,
+    grid: &mut PointGrid,
+    em: &mut EmStep,
+) -> f64 {
+    let world = tracker.texture_positions();
+    let stride = world.len().div_ceil(SCREEN_POINTS).max(1);
+    let model: Vec<Point3> = world.into_iter().step_by(stride).collect();
+    em_step(
+        WeightedPoints::unit(data),
+        WeightedPoints::unit(&model),
+        sigma,
+        tracker.options.outlier_constant,
+        grid,
+        em,
+    );
+    em.inlier.iter().sum::<f64>() / data.len().max(1) as f64
 }
 
 /// One EM run of the tracker (its current layout and options) from `start` on `data`,
@@ -296,6 +396,45 @@ fn root_joints(model: &ArticulatedModel) -> Vec<usize> {
             true
         })
         .collect()
+}
+
+/// The turns tried: `headings` about `up`, and with `any_up` the same about each world axis
+/// after the model's up axis is laid along it. Each with its heading (radians).
+fn orientations(up: &nalgebra::Unit<Vector3>, headings: usize, any_up: bool) -> Vec<(f64, Quat)> {
+    let mut layings = vec![Quat::identity()];
+    if any_up {
+        for a in 0..3 {
+            for sign in [1.0, -1.0] {
+                let target = Vector3::from_fn(|i, _| if i == a { sign } else { 0.0 });
+                if (target - up.into_inner()).norm() < 1e-9 {
+                    continue;
+                }
+                // Laid from `up` onto `target`: the shortest turn, or half a turn about an
+                // axis across `up` when `target` is its opposite.
+                let laid = Quat::rotation_between(up, &target).unwrap_or_else(|| {
+                    let across = if up.x.abs() < 0.9 {
+                        Vector3::x()
+                    } else {
+                        Vector3::y()
+                    };
+                    Quat::from_axis_angle(
+                        &nalgebra::Unit::new_normalize(up.cross(&across)),
+                        std::f64::consts::PI,
+                    )
+                });
+                layings.push(laid);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for laid in layings {
+        let axis = nalgebra::Unit::new_normalize(laid * up.into_inner());
+        for k in 0..headings {
+            let heading = std::f64::consts::TAU * k as f64 / headings as f64;
+            out.push((heading, Quat::from_axis_angle(&axis, heading) * laid));
+        }
+    }
+    out
 }
 
 /// The model's up axis: y, or z when its surface is much deeper in z than tall in y (as

@@ -12,6 +12,7 @@
 
 mod frame;
 mod initialise;
+mod limb_swings;
 mod m_step;
 mod model;
 mod options;
@@ -29,6 +30,7 @@ use parts::{PartModel, PlacedParts};
 use texture::TexturePoint;
 
 pub use initialise::{Initialisation, InitialiseOptions, Tried, initialise, initialise_with};
+pub use limb_swings::LimbSwingOptions;
 pub use model::{bind_pose, texture_count};
 pub use options::{TextureSource, TrackOptions};
 pub use take::{FrameStart, StartMode, Take, TakeFrame, TakeOptions};
