@@ -8,7 +8,7 @@
 //! `cargo run --release -p rigfit-testkit --example track_init [SUITE...]`
 //! (`SEEDS=5` motions per suite, `ANY_UP=0` headings about the model's up axis only,
 //! SCREEN_SIGMA, CENTRES, LAID_FITS, LAID_KEPT, LAID_MARGIN, `POINTS=2000` points per frame, `VERBOSE=1` prints every
-//! hypothesis the initialisation tried; HEADINGS, ROOT_SIGMA, ROOT_FLOOR, KEEP, FULL_SIGMA,
+//! hypothesis the initialisation tried; HEADINGS, ROOT_SIGMA, ROOT_FLOOR, ROOT_POINTS, KEEP, FULL_SIGMA,
 //! FULL_STEPS, FULL_PRIOR, SCORE_SIGMA, PASSES, REFINE_SIGMA, REFINE_STEPS, SWINGS=1 (limb swings), SWING_SIGMA, SWING_REACH, SWING_DIAGONALS=0 override `InitialiseOptions`)
 
 use std::time::Instant;
@@ -45,6 +45,19 @@ fn bend(rig: &rigfit_core::Rig, pose: &Pose) -> f64 {
         .sum()
 }
 
+/// Each reported joint's distance between `pose` and `truth`, % of `height`, on stderr.
+fn print_joint_errors(rig: &rigfit_core::Rig, pose: &Pose, truth: &Pose, height: f64) {
+    let a = rig.skeleton.joint_positions(pose);
+    let b = rig.skeleton.joint_positions(truth);
+    for j in rig.reported_joints() {
+        eprintln!(
+            "    {:<16} {:.1}%",
+            rig.skeleton.joint(j).name,
+            100.0 * (a[j] - b[j]).norm() / height
+        );
+    }
+}
+
 fn main() {
     let seeds = env_usize("SEEDS", 5);
     let points = env_usize("POINTS", 2000);
@@ -72,6 +85,7 @@ fn main() {
         laid_margin: env_f64("LAID_MARGIN", d.laid_margin),
         root_sigma: env_f64("ROOT_SIGMA", d.root_sigma),
         root_floor: env_f64("ROOT_FLOOR", d.root_floor),
+        root_points: env_usize("ROOT_POINTS", d.root_points),
         keep: env_usize("KEEP", d.keep),
         full_sigma: env_f64("FULL_SIGMA", d.full_sigma),
         full_steps: env_usize("FULL_STEPS", d.full_steps),
@@ -161,29 +175,13 @@ fn main() {
                         bend(rig, &t.pose)
                     );
                     if t.full_score.is_some() && std::env::var("JOINTS").is_ok() {
-                        let a = rig.skeleton.joint_positions(&t.pose);
-                        let b = rig.skeleton.joint_positions(&frames[0].1);
-                        for j in rig.reported_joints() {
-                            eprintln!(
-                                "    {:<16} {:.1}%",
-                                rig.skeleton.joint(j).name,
-                                100.0 * (a[j] - b[j]).norm() / h
-                            );
-                        }
+                        print_joint_errors(rig, &t.pose, &frames[0].1, h);
                     }
                 }
             }
             if std::env::var("JOINTS").as_deref() == Ok("init") {
-                let a = rig.skeleton.joint_positions(&init.pose);
-                let b = rig.skeleton.joint_positions(&frames[0].1);
                 eprintln!("  initialised pose:");
-                for j in rig.reported_joints() {
-                    eprintln!(
-                        "    {:<16} {:.1}%",
-                        rig.skeleton.joint(j).name,
-                        100.0 * (a[j] - b[j]).norm() / h
-                    );
-                }
+                print_joint_errors(rig, &init.pose, &frames[0].1, h);
             }
             let mut tracker = Tracker::new(suite.model.clone(), options.clone()).expect("tracker");
             tracker.set_pose(&init.pose);
@@ -197,16 +195,8 @@ fn main() {
                 })
                 .collect();
             if verbose && std::env::var("JOINTS").is_ok() {
-                let a = rig.skeleton.joint_positions(&last);
-                let b = rig.skeleton.joint_positions(&frames[frames.len() - 1].1);
                 eprintln!("  last frame:");
-                for j in rig.reported_joints() {
-                    eprintln!(
-                        "    {:<16} {:.1}%",
-                        rig.skeleton.joint(j).name,
-                        100.0 * (a[j] - b[j]).norm() / h
-                    );
-                }
+                print_joint_errors(rig, &last, &frames[frames.len() - 1].1, h);
             }
             let later = &errors[FROM.min(errors.len())..];
             let mean = later.iter().sum::<f64>() / later.len().max(1) as f64;

@@ -5,8 +5,8 @@
 //! to the noise level; the hypothesis whose final E-step explains the most data wins.
 
 use super::limb_swings::{LimbSwingOptions, swing_limbs};
-use super::{ArticulatedModel, TrackError, TrackOptions, Tracker, check_cloud};
-use crate::engine::{EmStep, PointGrid, WeightedPoints, em_step};
+use super::{ArticulatedModel, TrackError, TrackOptions, Tracker, check_cloud, explained_share};
+use crate::engine::{EmStep, PointGrid};
 use crate::geometry::{Aabb, centroid};
 use crate::kinematics::DofLayout;
 use crate::math::{Point3, Quat, Vector3};
@@ -45,6 +45,8 @@ pub struct InitialiseOptions {
     pub root_sigma: f64,
     pub root_floor: f64,
     pub root_steps: usize,
+    /// The root-alone EM runs on at most this many of the data points (evenly strided).
+    pub root_points: usize,
     /// Hypotheses (distinct root placements) carried on to the fit of every joint.
     pub keep: usize,
     /// Every-joint EM: `sigma` from `full_sigma` down to the tracker's noise level in
@@ -81,6 +83,7 @@ impl Default for InitialiseOptions {
             root_sigma: 0.3,
             root_floor: 0.03,
             root_steps: 5,
+            root_points: 1000,
             keep: 3,
             full_sigma: 0.12,
             full_steps: 6,
@@ -225,8 +228,14 @@ pub fn initialise_with(
     );
     let upright_count = headings * centres.len();
     let mut root_fits: Vec<Hypothesis> = Vec::new();
+    // The root-alone fits see every few points: a body's place and heading need few.
+    let root_data: Vec<Point3> = data
+        .iter()
+        .step_by(data.len().div_ceil(settings.root_points.max(1)).max(1))
+        .copied()
+        .collect();
     for (i, (heading, c, start)) in placements.into_iter().enumerate() {
-        let score = fit(&mut tracker, &start, data, score_sigma);
+        let score = fit(&mut tracker, &start, &root_data, score_sigma);
         root_fits.push(Hypothesis {
             heading,
             centre: c,
@@ -345,15 +354,14 @@ fn screen(
     let world = tracker.texture_positions();
     let stride = world.len().div_ceil(SCREEN_POINTS).max(1);
     let model: Vec<Point3> = world.into_iter().step_by(stride).collect();
-    em_step(
-        WeightedPoints::unit(data),
-        WeightedPoints::unit(&model),
+    explained_share(
+        data,
+        &model,
         sigma,
         tracker.options.outlier_constant,
         grid,
         em,
-    );
-    em.inlier.iter().sum::<f64>() / data.len().max(1) as f64
+    )
 }
 
 /// One EM run of the tracker (its current layout and options) from `start` on `data`,
@@ -364,16 +372,7 @@ fn fit(tracker: &mut Tracker, start: &Pose, data: &[Point3], sigma: f64) -> f64 
     if tracker.track(data).is_err() {
         return f64::NEG_INFINITY;
     }
-    let world = tracker.texture_positions();
-    em_step(
-        WeightedPoints::unit(data),
-        WeightedPoints::unit(&world),
-        sigma,
-        tracker.options.outlier_constant,
-        &mut tracker.grid,
-        &mut tracker.em,
-    );
-    tracker.em.inlier.iter().sum::<f64>() / data.len() as f64
+    tracker.explained_share(data, sigma)
 }
 
 /// The topmost joints that move: a joint with its own degrees of freedom and no moving

@@ -179,6 +179,24 @@ mod tests {
     use crate::math::Quat;
     use crate::track::{ArticulatedModel, TrackOptions};
 
+    /// Every texture point of `tracker` pulled to where it is in `truth`, with weight 1.
+    fn exact_pulls(
+        tracker: &Tracker,
+        skeleton: &crate::skeleton::Skeleton,
+        truth: &Pose,
+    ) -> Vec<Pull> {
+        let fk = ForwardKinematics::new(skeleton, truth);
+        tracker
+            .texture
+            .iter()
+            .map(|t| Pull {
+                point: *t,
+                target: t.world(&fk),
+                weight: 1.0,
+            })
+            .collect()
+    }
+
     /// With every texture point pulled to where it is in a known pose, the M-step finds it.
     #[test]
     fn m_step_recovers_a_pose_from_exact_targets() {
@@ -197,16 +215,7 @@ mod tests {
             truth.local[j].rotation *= Quat::from_scaled_axis(w);
         }
         truth.local[0].translation += Vector3::new(0.05, -0.02, 0.03);
-        let fk = ForwardKinematics::new(&rig.skeleton, &truth);
-        let pulls: Vec<Pull> = tracker
-            .texture
-            .iter()
-            .map(|t| Pull {
-                point: *t,
-                target: t.world(&fk),
-                weight: 1.0,
-            })
-            .collect();
+        let pulls = exact_pulls(&tracker, &rig.skeleton, &truth);
         let start = rig.pose.clone();
         tracker.options.prior_weight = 0.0;
         tracker.fit(&pulls, &start, 30, true, 1.0);
@@ -242,16 +251,7 @@ mod tests {
                 ..TrackOptions::default()
             };
             let mut tracker = Tracker::new(model.clone(), options).expect("tracker");
-            let fk = ForwardKinematics::new(&rig.skeleton, &truth);
-            let pulls: Vec<Pull> = tracker
-                .texture
-                .iter()
-                .map(|t| Pull {
-                    point: *t,
-                    target: t.world(&fk),
-                    weight: 1.0,
-                })
-                .collect();
+            let pulls = exact_pulls(&tracker, &rig.skeleton, &truth);
             tracker.fit(&pulls, &rig.pose, 30, true, 1.0);
             let joint = rig.skeleton.joint(elbow);
             let relative =

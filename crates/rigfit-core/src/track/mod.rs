@@ -118,3 +118,28 @@ pub struct Tracker {
     /// Per texture point, whether data supported it at the end of the last frame.
     seen: Vec<bool>,
 }
+
+/// The share of `data` that `model` points explain: the data's summed inlier posteriors of
+/// one E-step (eq. 17, with the outlier term `outlier_constant`) at `sigma`, per data point.
+/// How the first-frame search, a take's start and its recovery compare fits.
+pub(crate) fn explained_share(
+    data: &[Point3],
+    model: &[Point3],
+    sigma: f64,
+    outlier_constant: f64,
+    grid: &mut PointGrid,
+    em: &mut EmStep,
+) -> f64 {
+    if data.is_empty() {
+        return 0.0;
+    }
+    crate::engine::em_step(
+        crate::engine::WeightedPoints::unit(data),
+        crate::engine::WeightedPoints::unit(model),
+        sigma,
+        outlier_constant,
+        grid,
+        em,
+    );
+    em.inlier.iter().sum::<f64>() / data.len() as f64
+}

@@ -10,7 +10,6 @@ use super::{
     ArticulatedModel, FrameFit, InitialiseOptions, TrackError, TrackOptions, Tracker,
     initialise_with,
 };
-use crate::engine::{WeightedPoints, em_step};
 use crate::math::Point3;
 use crate::skeleton::Pose;
 
@@ -237,27 +236,6 @@ impl Take {
     fn score(&mut self, data: &[Point3]) -> f64 {
         let sigma = self.options.search.score_sigma * self.tracker.model.height;
         self.tracker.explained_share(data, sigma)
-    }
-}
-
-impl Tracker {
-    /// The share of `data` the current pose explains: the data's summed inlier posteriors
-    /// of one E-step (eq. 17, with the outlier class) at `sigma` over every texture point,
-    /// per data point.
-    pub fn explained_share(&mut self, data: &[Point3], sigma: f64) -> f64 {
-        if data.is_empty() {
-            return 0.0;
-        }
-        let world = self.texture_positions();
-        em_step(
-            WeightedPoints::unit(data),
-            WeightedPoints::unit(&world),
-            sigma,
-            self.options.outlier_constant,
-            &mut self.grid,
-            &mut self.em,
-        );
-        self.em.inlier.iter().sum::<f64>() / data.len() as f64
     }
 }
 

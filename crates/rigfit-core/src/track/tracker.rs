@@ -3,7 +3,7 @@
 
 use super::parts::PlacedParts;
 use super::texture::TexturePoint;
-use super::{ArticulatedModel, TrackError, TrackOptions, Tracker};
+use super::{ArticulatedModel, TrackError, TrackOptions, Tracker, explained_share};
 use crate::engine::{Candidates, EmStep, PointGrid, SubtreeMoments};
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::Point3;
@@ -79,6 +79,21 @@ impl Tracker {
     /// The model.
     pub fn model(&self) -> &ArticulatedModel {
         &self.model
+    }
+
+    /// The share of `data` the current pose explains: the data's summed inlier posteriors
+    /// of one E-step (eq. 17, with the outlier class) at `sigma` over every texture point,
+    /// per data point.
+    pub fn explained_share(&mut self, data: &[Point3], sigma: f64) -> f64 {
+        let world = self.texture_positions();
+        explained_share(
+            data,
+            &world,
+            sigma,
+            self.options.outlier_constant,
+            &mut self.grid,
+            &mut self.em,
+        )
     }
 
     /// The texture points' world positions in the current pose.
