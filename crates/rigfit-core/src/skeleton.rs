@@ -346,6 +346,19 @@ impl Skeleton {
         world
     }
 
+    /// `pose` with the whole body moved by the rigid motion `x -> turn x + shift`: each
+    /// joint without a parent carries it.
+    pub fn moved_rigidly(&self, pose: &Pose, turn: &Quat, shift: &Vector3) -> Pose {
+        let mut out = pose.clone();
+        for (j, local) in out.local.iter_mut().enumerate() {
+            if self.joint(j).parent.is_none() {
+                local.translation = turn * local.translation + shift;
+                local.rotation = turn * local.rotation;
+            }
+        }
+        out
+    }
+
     /// The world position of every joint for `pose`.
     pub fn joint_positions(&self, pose: &Pose) -> Vec<crate::math::Point3> {
         self.world_matrices(pose)

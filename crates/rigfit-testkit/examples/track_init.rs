@@ -13,11 +13,11 @@
 
 use std::time::Instant;
 
-use rand::{Rng, SeedableRng};
 use rigfit_core::track::{InitialiseOptions, TrackOptions, Tracker, initialise_with};
-use rigfit_core::{Point3, Pose, Quat, Vector3};
+use rigfit_core::{Point3, Pose};
 use rigfit_testkit::track_cases::SequenceOptions;
-use rigfit_testkit::track_suites::{self, FRAMES, joint_error};
+use rigfit_testkit::track_corpus::suite_sequence;
+use rigfit_testkit::track_suites::joint_error;
 
 /// The error bounds of issue 23, as fractions of the height.
 const MEAN_BOUND: f64 = 0.03;
@@ -119,46 +119,18 @@ fn main() {
     let mut passed = 0;
     let mut times: Vec<f64> = Vec::new();
     for name in chosen {
-        let suite = track_suites::suite(name, FRAMES, &sequence);
-        let rig = &suite.rig;
-        let h = suite.model.height;
-        let extent = rig.bounds(&rig.pose).expect("bounds").extent();
-        let up = if (rig.height() - extent.z).abs() < 1e-12 && (extent.y - extent.z).abs() > 0.0 {
-            Vector3::z_axis()
-        } else {
-            Vector3::y_axis()
-        };
-        let across = if up.z > 0.5 {
-            [Vector3::x(), Vector3::y()]
-        } else {
-            [Vector3::x(), Vector3::z()]
-        };
-        let scale = h / 1.75;
         let mut suite_pass = 0;
         for seed in 0..seeds as u64 {
-            let mut rng = rand::rngs::StdRng::seed_from_u64(0x23_0000 + seed);
-            let angle = rng.random_range(0.0..std::f64::consts::TAU);
-            let turn = Quat::from_axis_angle(&up, angle);
-            let shift = (across[0] * rng.random_range(-2.0..2.0)
-                + across[1] * rng.random_range(-2.0..2.0))
-                * scale;
-            let move_point = |p: &Point3| Point3::from(turn * p.coords + shift);
-            let frames: Vec<(Vec<Point3>, Pose)> = suite
+            // The suite's sequence moved by the seed's rigid motion (as `track_corpus` does).
+            let moved = suite_sequence(name, seed, &sequence, None);
+            let (rig, h, angle) = (&moved.rig, moved.height, moved.turn);
+            let frames: Vec<(Vec<Point3>, Pose)> = moved
                 .frames
                 .iter()
-                .map(|f| {
-                    let mut truth = f.truth.clone();
-                    for (j, local) in truth.local.iter_mut().enumerate() {
-                        if rig.skeleton.joint(j).parent.is_none() {
-                            local.translation = turn * local.translation + shift;
-                            local.rotation = turn * local.rotation;
-                        }
-                    }
-                    (f.points.iter().map(move_point).collect(), truth)
-                })
+                .map(|f| (f.points.clone(), f.truth.clone()))
                 .collect();
             let t0 = Instant::now();
-            let init = initialise_with(&suite.model, &options, &settings, &frames[0].0)
+            let init = initialise_with(&moved.model, &options, &settings, &frames[0].0)
                 .expect("initialises");
             let seconds = t0.elapsed().as_secs_f64();
             times.push(seconds);
@@ -183,7 +155,7 @@ fn main() {
                 eprintln!("  initialised pose:");
                 print_joint_errors(rig, &init.pose, &frames[0].1, h);
             }
-            let mut tracker = Tracker::new(suite.model.clone(), options.clone()).expect("tracker");
+            let mut tracker = Tracker::new(moved.model.clone(), options.clone()).expect("tracker");
             tracker.set_pose(&init.pose);
             let mut last = init.pose.clone();
             let errors: Vec<f64> = frames

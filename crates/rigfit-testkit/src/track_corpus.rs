@@ -166,18 +166,6 @@ impl TakeOutcome {
     }
 }
 
-/// `pose` moved as a whole by `x -> turn x + shift` (every joint without a parent carries it).
-pub fn moved_pose(rig: &Rig, pose: &Pose, turn: &Quat, shift: &Vector3) -> Pose {
-    let mut out = pose.clone();
-    for (j, local) in out.local.iter_mut().enumerate() {
-        if rig.skeleton.joint(j).parent.is_none() {
-            local.translation = turn * local.translation + shift;
-            local.rotation = turn * local.rotation;
-        }
-    }
-    out
-}
-
 /// A turn by any angle about `up` and a shift anywhere in a 4 m square across it (scaled by
 /// `height / 1.75`), drawn from `rng` as `track_init` draws them.
 fn rigid_motion(up: &Vector3, height: f64, rng: &mut impl Rng) -> (f64, Quat, Vector3) {
@@ -211,7 +199,7 @@ fn move_frames(rig: &Rig, frames: &mut [SequenceFrame], turn: &Quat, shift: &Vec
         for p in &mut frame.points {
             *p = turn * *p + shift;
         }
-        frame.truth = moved_pose(rig, &frame.truth, turn, shift);
+        frame.truth = rig.skeleton.moved_rigidly(&frame.truth, turn, shift);
     }
 }
 
@@ -231,10 +219,10 @@ pub fn upright_sequence(
     }
     let zero = Vector3::zeros();
     let mut upright = rig.clone();
-    upright.pose = moved_pose(rig, &rig.pose, &to_y, &zero);
+    upright.pose = rig.skeleton.moved_rigidly(&rig.pose, &to_y, &zero);
     let turned: Vec<Pose> = poses
         .iter()
-        .map(|p| moved_pose(rig, p, &to_y, &zero))
+        .map(|p| rig.skeleton.moved_rigidly(p, &to_y, &zero))
         .collect();
     let mut frames = make_sequence(&upright, parts, &turned, options);
     let back = to_y.inverse();
@@ -245,16 +233,6 @@ pub fn upright_sequence(
         frame.truth = pose.clone();
     }
     frames
-}
-
-/// The axis the first-frame search turns about (`track::initialise`'s rule: z when the
-/// model's surface is much deeper in z than tall in y).
-pub fn search_up(model: &ArticulatedModel) -> Vector3 {
-    let bare = model.surface_normals.is_none();
-    match rigfit_core::Aabb::from_points(&model.surface_samples) {
-        Some(b) if rigfit_core::rig::z_is_up(&b.extent(), bare) => Vector3::z(),
-        _ => Vector3::y(),
-    }
 }
 
 /// The largest mean joint step between consecutive poses, fraction of `height`.
@@ -305,7 +283,7 @@ pub fn suite_sequence(
         seed,
         max_step: max_step(&rig, &poses, h),
         rig,
-        search_up: search_up(&suite.model),
+        search_up: suite.model.up_axis().into_inner(),
         model: suite.model,
         height: h,
         up,
@@ -381,7 +359,7 @@ pub fn corpus_sequence(
         seed,
         max_step: max_step(&rig, &poses, read.height),
         rig,
-        search_up: search_up(&model),
+        search_up: model.up_axis().into_inner(),
         model,
         height: read.height,
         up: read.up,
@@ -509,7 +487,7 @@ pub fn synthetic_motion(read: &CorpusRig, frames: usize, rng: &mut impl Rng) -> 
             let w = ease(s);
             let turn = Quat::from_axis_angle(&axis, spin * w);
             let shift = pivot - turn * pivot + travel * w;
-            moved_pose(rig, &pose, &turn, &shift)
+            rig.skeleton.moved_rigidly(&pose, &turn, &shift)
         })
         .collect()
 }

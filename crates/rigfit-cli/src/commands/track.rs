@@ -348,6 +348,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<String> {
     let mut summary = String::new();
     if !tracked.is_empty() {
         let poses: Vec<Pose> = tracked.iter().map(|t| t.fit.pose.clone()).collect();
+        let (start_line, start_json) = first_frame_choice(&tracked[0].start, args.init);
         let mut staged = Vec::new();
         if let Some(out) = &args.output {
             staged.push(stage(out, &rig_file.poses_bytes(out, &poses, args.fps)?)?);
@@ -364,10 +365,9 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<String> {
                     frame
                 })
                 .collect();
-            let start = first_frame_choice(&tracked[0].start, args.init).1;
             staged.push(stage(
                 report,
-                to_text(&json!({ "start": start, "frames": frames })).as_bytes(),
+                to_text(&json!({ "start": start_json, "frames": frames })).as_bytes(),
             )?);
         }
         if let Some(picture) = &args.render {
@@ -383,7 +383,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<String> {
         }
         commit_all(staged)?;
         let total: f64 = tracked.iter().map(|t| t.seconds).sum();
-        summary = first_frame_choice(&tracked[0].start, args.init).0;
+        summary = start_line;
         let collapsed: Vec<(usize, bool)> = tracked
             .iter()
             .enumerate()

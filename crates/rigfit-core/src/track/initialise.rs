@@ -7,10 +7,9 @@
 use super::limb_swings::{LimbSwingOptions, swing_limbs};
 use super::{ArticulatedModel, TrackError, TrackOptions, Tracker, check_cloud, explained_share};
 use crate::engine::{EmStep, PointGrid};
-use crate::geometry::{Aabb, centroid};
+use crate::geometry::centroid;
 use crate::kinematics::DofLayout;
 use crate::math::{Point3, Quat, Vector3};
-use crate::rig::z_is_up;
 use crate::skeleton::{JointDof, Pose};
 
 /// Two root-only fits are one hypothesis when their roots are this close (fraction of the
@@ -184,7 +183,7 @@ pub fn initialise_with(
     if root_layout.is_empty() {
         return Err(TrackError::NothingMoves);
     }
-    let up = up_axis(model);
+    let up = model.up_axis();
     let score_sigma = settings.score_sigma * h;
     let model_centre = centroid(&tracker.texture_positions());
     let mut centres = data_centres(data, h);
@@ -205,14 +204,15 @@ pub fn initialise_with(
         .copied()
         .collect();
     let (mut grid, mut em) = (PointGrid::default(), EmStep::default());
-    let mut placements: Vec<(f64, usize, Pose)> = Vec::new();
+    // (heading, centre, start pose, laid)
+    let mut placements: Vec<(f64, usize, Pose, bool)> = Vec::new();
     let mut laid: Vec<(f64, usize, Pose, f64)> = Vec::new();
     for (c, centre) in centres.iter().enumerate() {
         for (k, &(heading, turn)) in turns.iter().enumerate() {
             let shift = centre.coords - turn * model_centre.coords;
-            let start = moved(&model.start, skeleton, &turn, &shift);
+            let start = skeleton.moved_rigidly(&model.start, &turn, &shift);
             if k < headings {
-                placements.push((heading, c, start));
+                placements.push((heading, c, start, false));
             } else {
                 tracker.set_pose(&start);
                 let screened = screen(&tracker, &screen_data, screen_sigma, &mut grid, &mut em);
@@ -224,9 +224,8 @@ pub fn initialise_with(
     placements.extend(
         laid.into_iter()
             .take(settings.laid_fits)
-            .map(|(heading, c, start, _)| (heading, c, start)),
+            .map(|(heading, c, start, _)| (heading, c, start, true)),
     );
-    let upright_count = headings * centres.len();
     let mut root_fits: Vec<Hypothesis> = Vec::new();
     // The root-alone fits see every few points: a body's place and heading need few.
     let root_data: Vec<Point3> = data
@@ -234,14 +233,14 @@ pub fn initialise_with(
         .step_by(data.len().div_ceil(settings.root_points.max(1)).max(1))
         .copied()
         .collect();
-    for (i, (heading, c, start)) in placements.into_iter().enumerate() {
+    for (heading, c, start, laid) in placements {
         let score = fit(&mut tracker, &start, &root_data, score_sigma);
         root_fits.push(Hypothesis {
             heading,
             centre: c,
             pose: tracker.pose.clone(),
             score,
-            laid: i >= upright_count,
+            laid,
         });
     }
     root_fits.sort_by(|a, b| b.score.total_cmp(&a.score));
@@ -436,29 +435,6 @@ fn orientations(up: &nalgebra::Unit<Vector3>, headings: usize, any_up: bool) -> 
     out
 }
 
-/// The model's up axis: y, or z when its surface is much deeper in z than tall in y (as
-/// `Rig::height` decides).
-fn up_axis(model: &ArticulatedModel) -> nalgebra::Unit<Vector3> {
-    let bare = model.surface_normals.is_none();
-    match Aabb::from_points(&model.surface_samples) {
-        Some(bounds) if z_is_up(&bounds.extent(), bare) => Vector3::z_axis(),
-        _ => Vector3::y_axis(),
-    }
-}
-
-/// `pose` with its whole body moved by the rigid motion `x -> turn x + shift`: each joint
-/// without a parent carries it.
-fn moved(pose: &Pose, skeleton: &crate::skeleton::Skeleton, turn: &Quat, shift: &Vector3) -> Pose {
-    let mut out = pose.clone();
-    for (j, local) in out.local.iter_mut().enumerate() {
-        if skeleton.joint(j).parent.is_none() {
-            local.translation = turn * local.translation + shift;
-            local.rotation = turn * local.rotation;
-        }
-    }
-    out
-}
-
 /// Where the body may stand: the coordinate-wise median of the data, and the mean of the
 /// data within a body's height of it (robust to outliers far away).
 fn data_centres(data: &[Point3], height: f64) -> Vec<Point3> {
@@ -514,7 +490,7 @@ mod tests {
             .iter()
             .map(|p| Point3::from(turn * p.coords + shift))
             .collect();
-        let truth = moved(&model.start, &model.skeleton, &turn, &shift);
+        let truth = model.skeleton.moved_rigidly(&model.start, &turn, &shift);
         let init = initialise(&model, &TrackOptions::default(), &data).expect("initialises");
         let a = model.skeleton.joint_positions(&init.pose);
         let b = model.skeleton.joint_positions(&truth);

@@ -7,12 +7,23 @@ use rand::SeedableRng;
 use super::parts::{PartModel, PlacedParts};
 use super::texture::sample_triangles;
 use super::{ArticulatedModel, TrackError};
+use crate::geometry::Aabb;
 use crate::kinematics::ForwardKinematics;
-use crate::math::Point3;
-use crate::rig::Rig;
+use crate::math::{Point3, Vector3};
+use crate::rig::{Rig, z_is_up};
 use crate::skeleton::Pose;
 
 impl ArticulatedModel {
+    /// The model's up axis: y, or z when its surface is much deeper in z than tall in y (as
+    /// `Rig::height` decides). The first-frame search turns the body about it.
+    pub fn up_axis(&self) -> nalgebra::Unit<Vector3> {
+        let bare = self.surface_normals.is_none();
+        match Aabb::from_points(&self.surface_samples) {
+            Some(bounds) if z_is_up(&bounds.extent(), bare) => Vector3::z_axis(),
+            _ => Vector3::y_axis(),
+        }
+    }
+
     /// The model of `rig` in its stored pose: ellipsoids fitted to the skinned mesh and
     /// `samples` texture points sampled on it, or, for a bare skeleton, ellipsoids sized from
     /// bone lengths and sampled on their fused surface. `samples == 0` picks the count from

@@ -273,13 +273,7 @@ mod tests {
             .iter()
             .map(|p| Point3::from(turn * p.coords + shift))
             .collect();
-        let mut truth = model.start.clone();
-        for (j, local) in truth.local.iter_mut().enumerate() {
-            if model.skeleton.joint(j).parent.is_none() {
-                local.translation = turn * local.translation + shift;
-                local.rotation = turn * local.rotation;
-            }
-        }
+        let truth = model.skeleton.moved_rigidly(&model.start, &turn, &shift);
         (model, data, truth)
     }
 
