@@ -139,6 +139,20 @@ fn serve_prints_its_address_answers_and_stops_on_sigterm() {
 }
 
 #[test]
+fn serve_stops_cleanly_on_a_sigterm_sent_as_soon_as_the_address_is_read() {
+    // The handlers are installed before the address is printed: no window in which SIGTERM
+    // kills the process outright.
+    for _ in 0..3 {
+        let (child, _, _) = start(&[]);
+        assert_eq!(
+            terminate(child),
+            Some(0),
+            "a clean stop on an early SIGTERM"
+        );
+    }
+}
+
+#[test]
 fn serve_loads_the_rig_given_as_c0() {
     let rig = data("cmu/01_01.bvh");
     let (child, addr, _) = start(&[rig.to_str().expect("path")]);

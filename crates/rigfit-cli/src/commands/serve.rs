@@ -119,6 +119,7 @@ async fn serve(
     let bound = listener
         .local_addr()
         .with_context(|| format!("{address}: cannot listen"))?;
+    let shutdown = shutdown_signal();
     let mut stdout = std::io::stdout();
     writeln!(stdout, "rigfit serve: http://{bound}/")?;
     stdout.flush()?;
@@ -127,33 +128,41 @@ async fn serve(
             "rigfit serve: warning: listening on {bound}: other machines can reach this server (it has no authentication)"
         );
     }
-    rigfit_server::serve(listener, state, shutdown_signal())
+    rigfit_server::serve(listener, state, shutdown)
         .await
         .context("serving")?;
     Ok(())
 }
 
-/// Completes on Ctrl-C or (on Unix) SIGTERM.
-async fn shutdown_signal() {
-    let ctrl_c = async {
+/// Completes on Ctrl-C or (on Unix) SIGTERM. The handlers are installed now, before the
+/// address is printed, so a signal sent as soon as the address is read stops the server
+/// cleanly instead of killing it.
+fn shutdown_signal() -> impl Future<Output = ()> + Send + 'static {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{SignalKind, signal};
+        let interrupt = signal(SignalKind::interrupt()).ok();
+        let terminate = signal(SignalKind::terminate()).ok();
+        async move {
+            // A handler that could not be installed never fires: serve until killed.
+            let wait = |handler: Option<tokio::signal::unix::Signal>| async move {
+                match handler {
+                    Some(mut handler) => {
+                        handler.recv().await;
+                    }
+                    None => std::future::pending::<()>().await,
+                }
+            };
+            tokio::select! {
+                () = wait(interrupt) => {}
+                () = wait(terminate) => {}
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    async {
         if tokio::signal::ctrl_c().await.is_err() {
-            // No signal handler: serve until killed.
             std::future::pending::<()>().await;
         }
-    };
-    #[cfg(unix)]
-    let terminate = async {
-        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
-            Ok(mut signal) => {
-                signal.recv().await;
-            }
-            Err(_) => std::future::pending::<()>().await,
-        }
-    };
-    #[cfg(not(unix))]
-    let terminate = std::future::pending::<()>();
-    tokio::select! {
-        () = ctrl_c => {}
-        () = terminate => {}
     }
 }
