@@ -26,6 +26,7 @@ pub mod pose_suites;
 pub mod report;
 pub mod scenario;
 pub mod surface_cases;
+pub mod surface_corpus;
 pub mod sweep;
 pub mod targets;
 pub mod track_cases;

@@ -34,6 +34,8 @@ pub struct SequenceOptions {
     /// Seconds between frames; `None` takes the clip's own key spacing (its frame rate),
     /// `frames` of them from the middle of the clip.
     pub frame_time: Option<f64>,
+    /// The vertical axis (0: x, 1: y, 2: z): the floor slab lies under the object along it.
+    pub up_axis: usize,
 }
 
 impl Default for SequenceOptions {
@@ -46,6 +48,7 @@ impl Default for SequenceOptions {
             hole_frames: 10..13,
             hole_size: 0.04,
             frame_time: None,
+            up_axis: 1,
         }
     }
 }
@@ -126,6 +129,19 @@ pub fn make_sequence(
         }
         None => vec![rig.pose.clone(); frames],
     };
+    sequence_of_poses(rig, &poses, options, rng)
+}
+
+/// Draws a sequence of `rig` through `poses` (the first is the reference's), each frame's
+/// scan drawn as [`make_sequence`] describes; `options.frames` and `frame_time` are not
+/// used.
+pub fn sequence_of_poses(
+    rig: &Rig,
+    poses: &[Pose],
+    options: &SequenceOptions,
+    rng: &mut impl Rng,
+) -> SurfaceSequence {
+    let frames = poses.len();
     let reference = rig.skinned_surface(&poses[0]);
     let bounds = Aabb::from_points(&reference.vertices).unwrap_or(Aabb {
         min: Point3::origin(),
@@ -147,7 +163,11 @@ pub fn make_sequence(
     let outliers =
         ((options.points as f64) * options.outlier_ratio.clamp(0.0, 1.0)).round() as usize;
     let surface_points = options.points.saturating_sub(outliers);
-    let floor_y = bounds.min.y - 0.01 * diagonal;
+    // The floor's axes: up, then the two across it in order (x and z under y).
+    let up = options.up_axis.min(2);
+    let (a, b) = ((up + 1) % 3, (up + 2) % 3);
+    let (a, b) = (a.min(b), a.max(b));
+    let floor_level = bounds.min[up] - 0.01 * diagonal;
     let mut truth = Vec::with_capacity(frames);
     let mut scans = Vec::with_capacity(frames);
     for (f, pose) in poses.iter().enumerate() {
@@ -168,12 +188,12 @@ pub fn make_sequence(
             if o % 2 == 0 {
                 // The floor: a thin slab under the character's first pose, wider than it.
                 let e = bounds.extent();
-                points.push(Point3::new(
-                    rng.random_range(bounds.min.x - 0.3 * e.x..bounds.max.x + 0.3 * e.x),
-                    floor_y - rng.random_range(0.0..0.005 * diagonal),
-                    rng.random_range(bounds.min.z - 0.3 * e.z..bounds.max.z + 0.3 * e.z),
-                ));
-                normals.push(Vector3::y());
+                let mut p = Point3::origin();
+                p[a] = rng.random_range(bounds.min[a] - 0.3 * e[a]..bounds.max[a] + 0.3 * e[a]);
+                p[up] = floor_level - rng.random_range(0.0..0.005 * diagonal);
+                p[b] = rng.random_range(bounds.min[b] - 0.3 * e[b]..bounds.max[b] + 0.3 * e[b]);
+                points.push(p);
+                normals.push(Vector3::ith(up, 1.0));
             } else {
                 points.push(Point3::from(Vector3::from_fn(|i, _| {
                     rng.random_range(frame_bounds.min[i] - margin..frame_bounds.max[i] + margin)

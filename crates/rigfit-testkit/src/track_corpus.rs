@@ -179,7 +179,7 @@ fn rigid_motion(up: &Vector3, height: f64, rng: &mut impl Rng) -> (f64, Quat, Ve
 }
 
 /// Two unit axes across `up`: x and z for y-up, x and y for z-up (as `track_init`).
-fn across(up: &Vector3) -> [Vector3; 2] {
+pub fn across(up: &Vector3) -> [Vector3; 2] {
     let up = up.normalize();
     if up.y.abs() > 0.99 {
         return [Vector3::x(), Vector3::z()];
@@ -443,6 +443,17 @@ fn slerp(a: &Quat, b: &Quat, u: f64) -> Quat {
 /// joint slerped between them with eased timing, while the whole body travels a third of
 /// its height across the up axis and turns up to 40 degrees about it.
 pub fn synthetic_motion(read: &CorpusRig, frames: usize, rng: &mut impl Rng) -> Vec<Pose> {
+    synthetic_motion_through(read, frames, 3, rng)
+}
+
+/// [`synthetic_motion`] through `far_poses` random far poses instead of three (more of them
+/// over the same frames: faster motion).
+pub fn synthetic_motion_through(
+    read: &CorpusRig,
+    frames: usize,
+    far_poses: usize,
+    rng: &mut impl Rng,
+) -> Vec<Pose> {
     let rig = &read.rig;
     let far = FarPoseOptions {
         limb_turn: 90f64.to_radians(),
@@ -452,7 +463,7 @@ pub fn synthetic_motion(read: &CorpusRig, frames: usize, rng: &mut impl Rng) -> 
         ..FarPoseOptions::default()
     };
     let mut keys = vec![read.start.clone()];
-    for _ in 0..3 {
+    for _ in 0..far_poses.max(1) {
         keys.push(far_pose(
             &rig.skeleton,
             &read.start,

@@ -5,12 +5,13 @@
 
 use super::estep::{Observations, VertexTargets, e_step_predicted};
 use super::model::Predictions;
-use super::solve::{StepWeights, gauss_newton_step};
+use super::solve::{StepWeights, gauss_newton_step, patch_support};
 use super::{FrameFit, SurfaceError, SurfaceTracker};
 use crate::engine::fitting_loop::{
     EmModel, Expectation, Maximisation, Schedule, Stage, Widths, continued_rotation, run_em,
 };
 use crate::math::{Point3, Vector3};
+use nalgebra::Rotation3;
 
 impl SurfaceTracker {
     pub(super) fn track_in_pool(&mut self, data: &Observations) -> Result<FrameFit, SurfaceError> {
@@ -20,11 +21,22 @@ impl SurfaceTracker {
         if self.options.extrapolate
             && let Some(previous) = &self.previous
         {
-            // Constant velocity: apply the last frame's motion of each patch once more.
+            // Constant velocity: apply the last frame's motion of each patch once more, in
+            // proportion to how well the patch was seen (a patch no point explained keeps
+            // still rather than flying on at the speed it had when it was lost).
             for k in 0..self.model.patch_count() {
-                self.pose.rotation[k] =
-                    continued_rotation(&previous.rotation[k], &last.rotation[k]);
-                self.pose.centre[k] = last.centre[k] + (last.centre[k] - previous.centre[k]);
+                let support = self.support.get(k).copied().unwrap_or(1.0);
+                let continued = continued_rotation(&previous.rotation[k], &last.rotation[k]);
+                self.pose.rotation[k] = if support >= 1.0 {
+                    continued
+                } else {
+                    let turn =
+                        Rotation3::from_matrix_unchecked(continued * last.rotation[k].transpose());
+                    Rotation3::from_scaled_axis(turn.scaled_axis() * support).into_inner()
+                        * last.rotation[k]
+                };
+                self.pose.centre[k] =
+                    last.centre[k] + (last.centre[k] - previous.centre[k]) * support;
             }
         }
         let diagonal = self.model.diagonal;
@@ -63,6 +75,7 @@ impl SurfaceTracker {
             predictions,
             targets: VertexTargets::default(),
             total: 0.0,
+            anchor: last.clone(),
             tracker: self,
             data,
         };
@@ -76,6 +89,7 @@ impl SurfaceTracker {
             return Err(SurfaceError::Diverged);
         }
         self.previous = Some(last);
+        self.support = patch_support(&self.model, &targets);
         let total = targets.total_weight();
         let rms = if total > 0.0 {
             (targets.weighted_residual / total).sqrt()
@@ -104,6 +118,8 @@ struct FrameEm<'t, 'd> {
     /// The last E-step's per-vertex targets and their total weight.
     targets: VertexTargets,
     total: f64,
+    /// The last frame's pose: patches short of data are pulled toward it.
+    anchor: super::PatchPose,
 }
 
 impl EmModel for FrameEm<'_, '_> {
@@ -149,6 +165,7 @@ impl EmModel for FrameEm<'_, '_> {
             } else {
                 tracker.options.relaxation
             },
+            anchor: tracker.options.anchor,
         };
         gauss_newton_step(
             &tracker.model,
@@ -158,6 +175,7 @@ impl EmModel for FrameEm<'_, '_> {
             &self.normals,
             &self.targets,
             &weights,
+            Some(&self.anchor),
         )?;
         self.predictions = tracker.model.predictions(&tracker.pose);
         let moved_to = tracker.model.blended_positions(&self.predictions);

@@ -7,6 +7,7 @@
 use rayon::prelude::*;
 
 use super::SurfaceError;
+use super::contacts::{ContactLink, contact_links};
 use super::patches::{VertexGraph, connected_components, farthest_point_partition};
 use crate::geometry::{Aabb, TriMesh};
 use crate::math::{Matrix3, Point3, Vector3};
@@ -19,9 +20,19 @@ pub struct PatchOptions {
     pub radius: f64,
     /// Width of the blending Gaussians, as a fraction of the patch radius.
     pub blend_width: f64,
-    /// One-patch parts near a larger object follow its nearest patch (rigfit's addition;
-    /// the paper leaves every component on its own).
-    pub attach_small_parts: bool,
+    /// Pieces of the mesh (connected components) that touch or nearly touch are held
+    /// together by contact links (rigfit's addition, [`contact_links`]; the paper leaves
+    /// every component on its own).
+    pub link_parts: bool,
+    /// The widest gap between two pieces that a link may span, as a fraction of the patch
+    /// radius.
+    pub part_gap: f64,
+    /// A vertex is at a contact when it lies within the gap plus this fraction of the patch
+    /// radius of the other piece.
+    pub contact_width: f64,
+    /// Rigidity weight of a contact vertex, against `alpha_k(v) + alpha_l(v)` (at most 1) of
+    /// a vertex in a piece's rigidity term.
+    pub contact_stiffness: f64,
 }
 
 impl Default for PatchOptions {
@@ -29,7 +40,10 @@ impl Default for PatchOptions {
         Self {
             radius: 0.06,
             blend_width: 0.8,
-            attach_small_parts: true,
+            link_parts: true,
+            part_gap: 1.0,
+            contact_width: 0.25,
+            contact_stiffness: 1.0,
         }
     }
 }
@@ -61,8 +75,11 @@ pub struct PatchModel {
     pub vertex_patch: Vec<u32>,
     /// Vertices of each patch.
     pub members: Vec<Vec<u32>>,
-    /// Neighbouring patches `N_k` (sorted, without `k`).
+    /// Neighbouring patches `N_k` (sorted, without `k`): joined by an edge, so always of one
+    /// piece.
     pub neighbours: Vec<Vec<u32>>,
+    /// Rigidity links between patches of pieces that touch (see [`PatchOptions::link_parts`]).
+    pub contacts: Vec<ContactLink>,
     /// Reference centre of mass `c_k^0` of each patch.
     pub rest_centre: Vec<Point3>,
     /// Surface area of each patch (its vertices' thirds of their triangles).
@@ -173,16 +190,23 @@ impl PatchModel {
             .iter()
             .map(|&s| components[s as usize])
             .collect();
-        if options.attach_small_parts {
-            attach_small_components(
+        let contacts = if options.link_parts {
+            // A piece per patch: loose vertices go with the patch they follow.
+            let vertex_component: Vec<u32> = vertex_patch
+                .iter()
+                .map(|&k| component[k as usize])
+                .collect();
+            contact_links(
                 &rest,
+                &vertex_component,
                 &vertex_patch,
-                &members,
-                &component,
-                radius,
-                &mut neighbours,
-            );
-        }
+                options.part_gap * radius,
+                options.contact_width * radius,
+                options.contact_stiffness,
+            )
+        } else {
+            Vec::new()
+        };
         for n in &mut neighbours {
             n.sort_unstable();
             n.dedup();
@@ -253,6 +277,7 @@ impl PatchModel {
             vertex_patch,
             members,
             neighbours,
+            contacts,
             rest_centre,
             area,
             component,
@@ -379,6 +404,16 @@ impl PatchModel {
         pairs
     }
 
+    /// The pairs the M-step couples, `k < l`, sorted: neighbouring patches and the patches
+    /// of contact links.
+    pub fn linked_pairs(&self) -> Vec<(usize, usize)> {
+        let mut pairs = self.neighbour_pairs();
+        pairs.extend(self.contacts.iter().map(|c| (c.k as usize, c.l as usize)));
+        pairs.sort_unstable();
+        pairs.dedup();
+        pairs
+    }
+
     /// The weight `alpha_k(v)` (zero when `k` is not blended at `v`).
     pub fn alpha(&self, k: usize, v: usize) -> f64 {
         self.blend(v)
@@ -389,7 +424,7 @@ impl PatchModel {
 
     /// The rigidity energy `E_r` (eq. 4): over neighbouring patches `k`, `l` and the vertices
     /// of both, `(alpha_k(v) + alpha_l(v)) |x_k(v) - x_l(v)|^2` (each unordered pair twice,
-    /// halved).
+    /// halved); plus, over contact links, `weight |x_k(v) - x_l(v)|^2` at their vertices.
     pub fn rigidity_energy(&self, pose: &PatchPose) -> f64 {
         self.neighbour_pairs()
             .into_iter()
@@ -405,50 +440,23 @@ impl PatchModel {
                     })
                     .sum::<f64>()
             })
-            .sum()
-    }
-}
-
-/// Parts too small to carry their own motion (a claw, a tooth, an eye: a component of one
-/// patch) that lie within three patch radii of a larger component become neighbours of the
-/// nearest patch there, so they follow it (rigidity, eq. 4) instead of drifting on the few
-/// points they receive. Separate objects farther apart stay separate.
-fn attach_small_components(
-    rest: &[Point3],
-    vertex_patch: &[u32],
-    members: &[Vec<u32>],
-    component: &[u32],
-    radius: f64,
-    neighbours: &mut [Vec<u32>],
-) {
-    let patch_count = members.len();
-    let mut patches_of = std::collections::HashMap::<u32, Vec<usize>>::new();
-    for (k, &c) in component.iter().enumerate() {
-        patches_of.entry(c).or_default().push(k);
-    }
-    if patches_of.len() < 2 {
-        return;
-    }
-    let coords: Vec<[f64; 3]> = rest.iter().map(|p| [p.x, p.y, p.z]).collect();
-    let tree = crate::engine::spatial::PointTree::new(&coords);
-    for k in 0..patch_count {
-        if patches_of[&component[k]].len() != 1 {
-            continue;
-        }
-        let mut best: Option<(f64, usize)> = None;
-        for &v in &members[k] {
-            for (w, d2) in tree.nearest_within(&rest[v as usize], 64, 3.0 * radius) {
-                let l = vertex_patch[w] as usize;
-                let large = patches_of[&component[l]].len() > 1;
-                if large && best.is_none_or(|(b, _)| d2 < b) {
-                    best = Some((d2, l));
-                }
-            }
-        }
-        if let Some((_, l)) = best {
-            neighbours[k].push(l as u32);
-            neighbours[l].push(k as u32);
-        }
+            .sum::<f64>()
+            + self
+                .contacts
+                .iter()
+                .map(|c| {
+                    let (k, l) = (c.k as usize, c.l as usize);
+                    c.vertices
+                        .iter()
+                        .map(|&v| {
+                            let v = v as usize;
+                            (self.prediction(pose, k, v) - self.prediction(pose, l, v))
+                                .norm_squared()
+                        })
+                        .sum::<f64>()
+                        * c.weight
+                })
+                .sum::<f64>()
     }
 }
 

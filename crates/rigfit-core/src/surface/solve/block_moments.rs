@@ -5,6 +5,7 @@
 
 use crate::engine::linear_algebra::Block6;
 use crate::math::{Matrix3, Vector3, skew};
+use crate::surface::contacts::ContactLink;
 use crate::surface::model::PatchModel;
 
 /// Weighted sums over vertices of their rest-frame offsets from two patch centres,
@@ -103,10 +104,34 @@ pub(super) fn cross_sum(s: &Matrix3) -> Vector3 {
 /// The moments of the rigidity term of neighbouring patches `k < l` (eq. 4): over the
 /// vertices of both, weights `alpha_k(v) + alpha_l(v)`, for blocks `(k,k)`, `(l,l)`, `(k,l)`.
 pub(super) fn rigidity_pair_moments(model: &PatchModel, k: usize, l: usize) -> [OffsetMoments; 3] {
-    let mut out = [OffsetMoments::default(); 3];
-    for &v in model.members[k].iter().chain(&model.members[l]) {
+    let vertices = model.members[k].iter().chain(&model.members[l]).map(|&v| {
         let v = v as usize;
-        let beta = model.alpha(k, v) + model.alpha(l, v);
+        (v, model.alpha(k, v) + model.alpha(l, v))
+    });
+    pair_moments(model, k, l, vertices)
+}
+
+/// The moments of a contact link's rigidity term: over its vertices, its weight each.
+pub(super) fn contact_moments(model: &PatchModel, link: &ContactLink) -> [OffsetMoments; 3] {
+    let vertices = link.vertices.iter().map(|&v| (v as usize, link.weight));
+    pair_moments(model, link.k as usize, link.l as usize, vertices)
+}
+
+/// The rest moments of patch `k`'s own vertices, weight 1 each (blocks `(k,k)`).
+pub(super) fn member_moments(model: &PatchModel, k: usize) -> OffsetMoments {
+    let vertices = model.members[k].iter().map(|&v| (v as usize, 1.0));
+    pair_moments(model, k, k, vertices)[0]
+}
+
+/// The moments of a rigidity term between patches `k` and `l` over `(vertex, beta)`.
+fn pair_moments(
+    model: &PatchModel,
+    k: usize,
+    l: usize,
+    vertices: impl Iterator<Item = (usize, f64)>,
+) -> [OffsetMoments; 3] {
+    let mut out = [OffsetMoments::default(); 3];
+    for (v, beta) in vertices {
         let a = model.rest[v] - model.rest_centre[k];
         let b = model.rest[v] - model.rest_centre[l];
         out[0].add(beta, &a, &a);

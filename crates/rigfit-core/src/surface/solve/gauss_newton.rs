@@ -30,6 +30,83 @@ pub struct StepWeights {
     pub tangential: f64,
     /// The step taken is this multiple of the Gauss-Newton step (1: the step itself).
     pub relaxation: f64,
+    /// Weight of the pull of patches short of data toward the anchor pose, per vertex,
+    /// against the data term of a vertex with the average posterior weight (see
+    /// [`anchor_weights`]); 0 turns it off.
+    pub anchor: f64,
+}
+
+/// The anchor term's weight of each patch (rigfit's addition): a patch with less posterior
+/// weight than its share of the vertices (an unseen part, a part seen by a few points or
+/// only by outliers) is pulled toward where the anchor pose (the last frame's) puts it, in
+/// proportion to what it lacks, `anchor * Wbar * (1 - support_k)` per vertex, `Wbar` the
+/// mean posterior weight of a vertex and `support_k` from [`patch_support`]; a patch seen
+/// as well as the average is free. With contact links and rigidity, a part out of view follows its
+/// neighbours instead of the clutter.
+pub fn anchor_weights(
+    model: &PatchModel,
+    targets: &VertexTargets,
+    weights: &StepWeights,
+) -> Vec<f64> {
+    let mean = targets.weight.iter().sum::<f64>() / model.vertex_count().max(1) as f64;
+    if weights.anchor <= 0.0 || mean <= 0.0 {
+        return vec![0.0; model.patch_count()];
+    }
+    patch_support(model, targets)
+        .into_iter()
+        .map(|seen| weights.anchor * weights.data * mean * (1.0 - seen))
+        .collect()
+}
+
+/// How well each patch is seen: its vertices' posterior weight against its share of the
+/// total by surface area, at most 1; 0 for a patch no point explains (and for every patch
+/// when none does).
+pub fn patch_support(model: &PatchModel, targets: &VertexTargets) -> Vec<f64> {
+    let total = targets.weight.iter().sum::<f64>();
+    let area = model.area.iter().sum::<f64>();
+    model
+        .members
+        .iter()
+        .zip(&model.area)
+        .map(|(m, &a)| {
+            let share = total * a / area.max(1e-300);
+            if share <= 0.0 {
+                return 0.0;
+            }
+            let seen: f64 = m.iter().map(|&v| targets.weight[v as usize]).sum();
+            (seen / share).min(1.0)
+        })
+        .collect()
+}
+
+/// Adds the anchor term's normal equations: over each patch's vertices, residual
+/// `x_k(v) - a_k(v)` (`a_k` the anchor pose's prediction), weight `w_k`; with the patch's
+/// rest moments, `d = c_k - c_k^a`, the gradient is `[m_k x d - X; w d + m_k - m_a]`,
+/// `X = sum q_k x q_a` (as for a rigidity pair of the patch with its anchored self).
+fn add_anchor(
+    system: &PatchSystem,
+    pose: &PatchPose,
+    anchor: &PatchPose,
+    patch_weights: &[f64],
+    sink: &mut impl NormalSink,
+) {
+    for (k, (&w, moments)) in patch_weights.iter().zip(&system.member_moments).enumerate() {
+        if w <= 0.0 {
+            continue;
+        }
+        let (rk, ra) = (&pose.rotation[k], &anchor.rotation[k]);
+        let mut block: Block6 = [0.0; 36];
+        moments.add_to_block(&mut block, w, rk, rk);
+        sink.add_jtj_block6(6 * k, 6 * k, &block);
+        let (mk, ma, s) = moments.rotated(rk, ra);
+        let d = pose.centre[k] - anchor.centre[k];
+        let residual_sum = d * moments.weight + mk - ma;
+        let top = mk.cross(&d) - cross_sum(&s);
+        for i in 0..3 {
+            sink.add_jtr(6 * k + i, w * top[i]);
+            sink.add_jtr(6 * k + 3 + i, w * residual_sum[i]);
+        }
+    }
 }
 
 /// One vertex's data term: `weight * |x(v) - ybar_v|_P^2` with `P = n n^T + t (I - n n^T)`.
@@ -242,8 +319,10 @@ fn add_rigidity(
     }
 }
 
-/// One Gauss-Newton step on `data * sum_v W_v |x(v) - ybar_v|_P^2 + rigidity * E_r`, applied
-/// to `pose` in place, where `P = n n^T + tangential (I - n n^T)` for the vertex normal `n`.
+/// One Gauss-Newton step on `data * sum_v W_v |x(v) - ybar_v|_P^2 + rigidity * E_r` (plus
+/// the anchor term toward `anchor`, see [`anchor_weights`]), applied to `pose` in place,
+/// where `P = n n^T + tangential (I - n n^T)` for the vertex normal `n`.
+#[allow(clippy::too_many_arguments)]
 pub fn gauss_newton_step(
     model: &PatchModel,
     system: &PatchSystem,
@@ -252,6 +331,7 @@ pub fn gauss_newton_step(
     normals: &[Vector3],
     targets: &VertexTargets,
     weights: &StepWeights,
+    anchor: Option<&PatchPose>,
 ) -> Result<(), SolveError> {
     let mut equations = system.pattern.equations();
 
@@ -262,6 +342,10 @@ pub fn gauss_newton_step(
     sums.add_to(model, system, pose, &mut equations);
 
     add_rigidity(system, pose, weights, &mut equations);
+    if let Some(anchor) = anchor {
+        let patch_weights = anchor_weights(model, targets, weights);
+        add_anchor(system, pose, anchor, &patch_weights, &mut equations);
+    }
 
     damp_solve_and_apply(model, pose, &mut equations, targets, weights)
 }

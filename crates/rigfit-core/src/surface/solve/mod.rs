@@ -19,5 +19,5 @@ mod patch_system;
 mod reference;
 
 pub use crate::engine::linear_algebra::SolveError;
-pub use gauss_newton::{StepWeights, gauss_newton_step};
+pub use gauss_newton::{StepWeights, anchor_weights, gauss_newton_step, patch_support};
 pub use patch_system::PatchSystem;

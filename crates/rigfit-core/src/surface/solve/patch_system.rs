@@ -2,7 +2,7 @@
 //! each block fixed by the model: the data term's blend pairs, those majorised onto the
 //! diagonal, and the rest-frame moments of the rigidity term (eq. 4).
 
-use super::block_moments::{OffsetMoments, rigidity_pair_moments};
+use super::block_moments::{OffsetMoments, contact_moments, member_moments, rigidity_pair_moments};
 use crate::engine::linear_algebra::{BlockPattern, SolveError};
 use crate::surface::model::PatchModel;
 
@@ -32,12 +32,16 @@ pub(super) struct BlendPair {
     pub(super) weight: f64,
 }
 
-/// The rigidity term (eq. 4) of neighbouring patches `k < l`: the rest-frame moments of its
-/// blocks `(k,k)`, `(l,l)` and `(k,l)`.
+/// The rigidity term (eq. 4) of neighbouring patches `k < l`, or of a contact link: the
+/// rest-frame moments of its blocks `(k,k)`, `(l,l)` and `(k,l)`.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RigidityPair {
     pub(super) k: usize,
     pub(super) l: usize,
+    /// The contact link it comes from (an index into `PatchModel::contacts`), or `None`
+    /// for neighbouring patches of one piece.
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub(super) contact: Option<usize>,
     pub(super) moments: [OffsetMoments; 3],
 }
 
@@ -61,18 +65,20 @@ pub struct PatchSystem {
     /// (see [`BlendPair`]).
     pair_start: Vec<u32>,
     pairs: Vec<BlendPair>,
-    /// For each neighbouring pair `(k, l)`: the rest-frame moments of its rigidity term
+    /// For each neighbouring pair `(k, l)` and each contact link: the rest-frame moments of its rigidity term
     /// (eq. 4) for the blocks `(k,k)`, `(l,l)` and `(k,l)`: the weights
     /// `alpha_k(v) + alpha_l(v)` never change, so the term's normal equations cost O(1) per
     /// pair instead of O(vertices).
     pub(super) rigidity_pairs: Vec<RigidityPair>,
+    /// Each patch's rest moments over its own vertices, weight 1 each (the anchor term).
+    pub(super) member_moments: Vec<OffsetMoments>,
 }
 
 impl PatchSystem {
     pub fn new(model: &PatchModel) -> Result<Self, SolveError> {
-        // The pattern is the patch graph: blend pairs that are not neighbours are majorised
-        // onto the diagonal (see `diagonal`), so they add no fill.
-        let pattern = BlockPattern::new(model.patch_count(), model.neighbour_pairs())?;
+        // The pattern is the patch graph and the contact links: blend pairs that are not
+        // neighbours are majorised onto the diagonal (see `diagonal`), so they add no fill.
+        let pattern = BlockPattern::new(model.patch_count(), model.linked_pairs())?;
         let block_of = |a: usize, b: usize| -> u32 {
             pattern
                 .block_index(a, b)
@@ -117,8 +123,24 @@ impl PatchSystem {
             .map(|(k, l)| RigidityPair {
                 k,
                 l,
+                contact: None,
                 moments: rigidity_pair_moments(model, k, l),
             })
+            .chain(
+                model
+                    .contacts
+                    .iter()
+                    .enumerate()
+                    .map(|(i, link)| RigidityPair {
+                        k: link.k as usize,
+                        l: link.l as usize,
+                        contact: Some(i),
+                        moments: contact_moments(model, link),
+                    }),
+            )
+            .collect();
+        let member_moments = (0..model.patch_count())
+            .map(|k| member_moments(model, k))
             .collect();
         Ok(Self {
             pattern,
@@ -126,6 +148,7 @@ impl PatchSystem {
             pair_start,
             pairs,
             rigidity_pairs,
+            member_moments,
         })
     }
 

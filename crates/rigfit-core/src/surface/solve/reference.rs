@@ -5,10 +5,12 @@
 use rayon::prelude::*;
 
 use super::block_moments::add_jtr;
+use super::gauss_newton::anchor_weights;
 use super::gauss_newton::{damp_solve_and_apply, data_terms};
 use super::patch_system::{BlendPair, DiagonalEntry, RigidityPair};
 use super::{PatchSystem, SolveError, StepWeights, gauss_newton_step};
 use crate::engine::linear_algebra::{Block6 as Block, NormalSink};
+use crate::geometry::TriMesh;
 use crate::math::{Matrix3, Point3, Vector3, exp_rotation, skew};
 use crate::surface::estep::VertexTargets;
 use crate::surface::model::{PatchModel, PatchOptions, PatchPose};
@@ -71,6 +73,7 @@ pub fn reference_step(
     normals: &[Vector3],
     targets: &VertexTargets,
     weights: &StepWeights,
+    anchor: Option<&PatchPose>,
 ) -> Result<(), SolveError> {
     let n = model.patch_count();
     let mut blocks = vec![[0.0; 36]; system.block_count()];
@@ -136,12 +139,30 @@ pub fn reference_step(
     let rigidity: Vec<PairTerms> = system
         .rigidity_pairs
         .par_iter()
-        .map(|&RigidityPair { k, l, .. }| {
+        .map(|&RigidityPair { k, l, contact, .. }| {
             let mut b = [[0.0; 36]; 3];
             let mut g = [0.0; 12];
-            for &v in model.members[k].iter().chain(&model.members[l]) {
-                let v = v as usize;
-                let beta = weights.rigidity * (model.alpha(k, v) + model.alpha(l, v));
+            // A contact link's vertices and weight, or both patches' vertices and weights
+            // alpha_k(v) + alpha_l(v).
+            let vertices: Vec<(usize, f64)> = match contact {
+                Some(i) => {
+                    let link = &model.contacts[i];
+                    link.vertices
+                        .iter()
+                        .map(|&v| (v as usize, link.weight))
+                        .collect()
+                }
+                None => model.members[k]
+                    .iter()
+                    .chain(&model.members[l])
+                    .map(|&v| {
+                        let v = v as usize;
+                        (v, model.alpha(k, v) + model.alpha(l, v))
+                    })
+                    .collect(),
+            };
+            for (v, beta) in vertices {
+                let beta = weights.rigidity * beta;
                 let qk = model.offset(pose, k, v);
                 let ql = model.offset(pose, l, v);
                 let r = (pose.centre[k] + qk) - (pose.centre[l] + ql);
@@ -184,6 +205,21 @@ pub fn reference_step(
         }
     }
 
+    // The anchor term, vertex by vertex: residual x_k(v) - a_k(v) over v in P_k, weight w_k.
+    if let Some(anchor) = anchor {
+        let patch_weights = anchor_weights(model, targets, weights);
+        for (k, &w) in patch_weights.iter().enumerate() {
+            let slot = system.pattern.block_index(k, k).expect("a diagonal block");
+            for &v in &model.members[k] {
+                let v = v as usize;
+                let q = model.offset(pose, k, v);
+                let r = model.prediction(pose, k, v) - model.prediction(anchor, k, v);
+                add_jtj(&mut blocks[slot], w, &q, &q);
+                add_jtr(&mut gradient[6 * k..6 * k + 6], w, &q, &r);
+            }
+        }
+    }
+
     let mut equations = system.pattern.equations();
     for (block, position) in blocks.iter().zip(system.pattern.block_pairs()) {
         let (a, b) = (position.row as usize, position.column as usize);
@@ -199,8 +235,27 @@ pub fn reference_step(
 /// vertex.
 #[test]
 fn moment_assembly_matches_vertex_by_vertex_sums() {
-    let reference = torus(30, 15);
-    let model = PatchModel::new(&reference, &PatchOptions::default()).expect("model");
+    let one = torus(30, 15);
+    // Two pieces a little apart: contact links join them.
+    let mut two = one.clone();
+    let count = two.vertices.len() as u32;
+    two.vertices.extend(
+        one.vertices
+            .iter()
+            .map(|p| p + Vector3::new(2.75, 0.0, 0.0)),
+    );
+    two.triangles
+        .extend(one.triangles.iter().map(|t| t.map(|i| i + count)));
+    two.normals = None;
+    for reference in [one, two] {
+        check_moment_assembly(&reference);
+    }
+}
+
+fn check_moment_assembly(reference: &TriMesh) {
+    let model = PatchModel::new(reference, &PatchOptions::default()).expect("model");
+    let pieces = model.component.iter().max().map_or(0, |&c| c + 1);
+    assert_eq!(model.contacts.is_empty(), pieces == 1, "{pieces} pieces");
     let system = PatchSystem::new(&model).expect("system");
     let mut rng = rand::rngs::StdRng::seed_from_u64(5);
     let mut pose = model.rest_pose();
@@ -228,11 +283,20 @@ fn moment_assembly_matches_vertex_by_vertex_sums() {
             targets.weighted_square[v] = w * y.norm_squared();
         }
     }
-    for (data, rigidity, tangential) in [
-        (40.0, 0.0, 1.0),
-        (40.0, 0.0, 0.0),
-        (0.0, 3.0, 1.0),
-        (40.0, 3.0, 0.3),
+    // A patch unseen: the anchor term pulls it.
+    for &v in &model.members[0] {
+        let v = v as usize;
+        targets.weight[v] = 0.0;
+        targets.weighted_sum[v] = Vector3::zeros();
+        targets.weighted_square[v] = 0.0;
+    }
+    let anchor = model.rest_pose();
+    for (data, rigidity, tangential, anchored) in [
+        (40.0, 0.0, 1.0, 0.0),
+        (40.0, 0.0, 0.0, 0.0),
+        (0.0, 3.0, 1.0, 0.0),
+        (40.0, 3.0, 0.3, 0.0),
+        (40.0, 3.0, 0.3, 0.5),
     ] {
         let weights = StepWeights {
             data,
@@ -240,7 +304,9 @@ fn moment_assembly_matches_vertex_by_vertex_sums() {
             damping: 1e-3,
             tangential,
             relaxation: 1.0,
+            anchor: anchored,
         };
+        let anchor = (anchored > 0.0).then_some(&anchor);
         let mut moment_pose = pose.clone();
         gauss_newton_step(
             &model,
@@ -250,6 +316,7 @@ fn moment_assembly_matches_vertex_by_vertex_sums() {
             &normals,
             &targets,
             &weights,
+            anchor,
         )
         .expect("step");
         let mut vertex_pose = pose.clone();
@@ -261,6 +328,7 @@ fn moment_assembly_matches_vertex_by_vertex_sums() {
             &normals,
             &targets,
             &weights,
+            anchor,
         )
         .expect("step");
         for k in 0..model.patch_count() {

@@ -1,0 +1,168 @@
+//! Surface tracking on the many-part objects of the surface corpus (issue 22's table in
+//! BENCHMARKS.md): each object posed through its joints by a fast motion, 30 scans of 8,000
+//! points (0.5% noise, 15% outliers, a part unseen in frames 10-19), tracked from its
+//! reference; per object and seed the mean, p95, worst frame mean and worst vertex (% of the
+//! diagonal), the unseen part's error when it comes back, and the time per frame; then each
+//! half's count within the bar (mean <= 1.5%, p95 <= 4%, no frame over 3%, no vertex over
+//! 10%).
+//!
+//! `cargo run --release -p rigfit-testkit --example surface_corpus`
+//! (`SEEDS=N` seeds 0..N, default 1; `OBJECTS=id,id` some objects; `PAPER=1` the paper's
+//! method; `NO_LINKS=1` without contact links; `SIGMA`, `ANNEAL`, `ITERATIONS`, `ANCHOR`,
+//! `STIFFNESS` set those options; `VERBOSE=1` every frame's mean and worst vertex and the
+//! truth's steps)
+
+use rigfit_core::surface::SurfaceOptions;
+use rigfit_testkit::corpus::Half;
+use rigfit_testkit::surface_corpus::{PartsOptions, load, parts_case, track_parts};
+
+fn main() {
+    let corpus = match load() {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("surface_corpus: {e}");
+            std::process::exit(2);
+        }
+    };
+    let seeds: u64 = std::env::var("SEEDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1);
+    let chosen: Option<Vec<String>> = std::env::var("OBJECTS")
+        .ok()
+        .map(|s| s.split(',').map(str::to_string).collect());
+    let mut options = if std::env::var("PAPER").is_ok() {
+        SurfaceOptions::paper()
+    } else {
+        SurfaceOptions::default()
+    };
+    // Options to compare against the defaults.
+    let knob = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<f64>().ok());
+    if let Some(v) = knob("SIGMA") {
+        options.initial_sigma = v;
+    }
+    if let Some(v) = knob("ANNEAL") {
+        options.anneal = v;
+    }
+    if let Some(v) = knob("ITERATIONS") {
+        options.max_iterations = v as usize;
+    }
+    if let Some(v) = knob("ANCHOR") {
+        options.anchor = v;
+    }
+    if let Some(v) = knob("STIFFNESS") {
+        options.patches.contact_stiffness = v;
+    }
+    if std::env::var("NO_LINKS").is_ok() {
+        options.patches.link_parts = false;
+    }
+    let verbose = std::env::var("VERBOSE").is_ok();
+    let parts = PartsOptions::default();
+    println!(
+        "| object | half | seed | pieces | vertices | mean | p95 | worst frame | worst vertex | unseen part back (mean / worst) | ms/frame | bar |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut tally = std::collections::BTreeMap::<Half, (usize, usize)>::new();
+    for entry in &corpus.rigs {
+        if chosen.as_ref().is_some_and(|c| !c.contains(&entry.id)) {
+            continue;
+        }
+        for seed in 0..seeds {
+            let case = match parts_case(&corpus, entry, seed, &parts) {
+                Ok(c) => c,
+                Err(e) => {
+                    eprintln!("{e}");
+                    continue;
+                }
+            };
+            let score = match track_parts(&case, &options, parts.scan.hole_frames.clone()) {
+                Ok(s) => s,
+                Err(e) => {
+                    println!(
+                        "| {} | {} | {seed} | failed: {e} |",
+                        entry.id,
+                        entry.half.name()
+                    );
+                    tally.entry(entry.half).or_default().1 += 1;
+                    continue;
+                }
+            };
+            if verbose {
+                let reference = &case.sequence.reference;
+                let truth = &case.sequence.truth;
+                for f in 1..truth.len() {
+                    let steps: Vec<f64> = truth[f]
+                        .iter()
+                        .zip(&truth[f - 1])
+                        .map(|(a, b)| (a - b).norm() / case.sequence.diagonal)
+                        .collect();
+                    let mean = steps.iter().sum::<f64>() / steps.len() as f64;
+                    let max = steps.iter().copied().fold(0.0, f64::max);
+                    eprintln!(
+                        "{} seed {seed} truth step {f}: mean {:.2}% max {:.2}%",
+                        entry.id,
+                        mean * 100.0,
+                        max * 100.0
+                    );
+                }
+                for (f, (m, w)) in score.frame_means.iter().zip(&score.frame_worst).enumerate() {
+                    let v = score.frame_worst_vertex[f];
+                    eprintln!(
+                        "{} seed {seed} frame {f}: mean {:.2}% worst {:.2}% (vertex {v} at {:.3?})",
+                        entry.id,
+                        m * 100.0,
+                        w * 100.0,
+                        reference.vertices[v].coords.as_slice()
+                    );
+                }
+            }
+            if std::env::var("VERBOSE").is_ok_and(|v| v == "2") {
+                // Each piece's mean error in the worst frame.
+                let mesh = &case.sequence.reference;
+                let graph = rigfit_core::surface::patches::VertexGraph::new(
+                    &mesh.vertices,
+                    &mesh.triangles,
+                    1e-7 * case.sequence.diagonal,
+                );
+                let labels = rigfit_core::surface::patches::connected_components(&graph);
+                let mut pieces = std::collections::BTreeMap::<u32, (usize, usize, f64)>::new();
+                for (v, &l) in labels.iter().enumerate() {
+                    let e = pieces.entry(l).or_insert((v, 0, 0.0));
+                    e.1 += 1;
+                    e.2 += score.worst_frame_errors[v];
+                }
+                for (first, count, sum) in pieces.values() {
+                    eprintln!(
+                        "{} seed {seed} worst frame: piece from vertex {first} ({count} vertices): {:.2}%",
+                        entry.id,
+                        sum / *count as f64 * 100.0
+                    );
+                }
+            }
+            let pass = score.passes();
+            let t = tally.entry(entry.half).or_default();
+            t.0 += usize::from(pass);
+            t.1 += 1;
+            let back = match (score.returned, score.returned_worst) {
+                (Some(m), Some(w)) => format!("{:.2} / {:.2}", m * 100.0, w * 100.0),
+                _ => "-".into(),
+            };
+            println!(
+                "| {} | {} | {seed} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {back} | {:.1} | {} |",
+                entry.id,
+                entry.half.name(),
+                case.pieces,
+                case.sequence.reference.vertices.len(),
+                score.mean * 100.0,
+                score.p95 * 100.0,
+                score.worst_frame() * 100.0,
+                score.worst_vertex() * 100.0,
+                score.median_seconds() * 1000.0,
+                if pass { "yes" } else { "no" }
+            );
+        }
+    }
+    for (half, (pass, total)) in tally {
+        println!("{}: {pass}/{total} within the bar", half.name());
+    }
+}
