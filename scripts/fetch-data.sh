@@ -92,12 +92,13 @@ pypi() { # NAME VERSION wheel|sdist -> the unpacked distribution
       -d "$dir.dl" "$1==$2" >/dev/null || die "pip download $1==$2 failed"
     mkdir -p "$dir"
     case $(ls "$dir.dl") in
-      *.whl) # the models only: MJCF files and licences
+      *.whl) # the models only: MJCF files, the mesh files they load, and licences
         python3 - "$dir.dl"/*.whl "$dir" <<'EOF'
 import sys, zipfile
+keep = (".xml", ".stl", ".obj", ".msh")
 with zipfile.ZipFile(sys.argv[1]) as z:
-    z.extractall(sys.argv[2], [n for n in z.namelist()
-                               if n.endswith(".xml") or "LICENSE" in n or "AUTHORS" in n])
+    z.extractall(sys.argv[2], [n for n in z.namelist() if n.lower().endswith(keep)
+                               or "LICENSE" in n or "AUTHORS" in n])
 EOF
         ;;
       *.tar.gz) tar xzf "$dir.dl"/*.tar.gz -C "$dir" --strip-components=1 ;;
@@ -220,6 +221,30 @@ corpus_gymnasium_robotics() { # PyPI gymnasium-robotics wheel (MIT; assets/LICEN
   cp "$p/LICENSE.md" "$c/gymnasium_robotics/LICENSE.md"
 }
 
+corpus_parts() { # many-part objects for surface tracking (data/surface_corpus.json):
+  # MJCF bodies with every visible geom as a rigid piece (scripts/corpus/mjcf2parts.py)
+  local d gr
+  d=$(pypi dm-control "$DM_CONTROL" wheel)/dm_control
+  gr=$(pypi gymnasium-robotics "$GYMNASIUM_ROBOTICS" wheel)/gymnasium_robotics/envs/assets
+  mkdir -p "$c/parts"
+  parts() { python3 "$conv/mjcf2parts.py" "$@" >/dev/null || die "mjcf2parts.py $* failed"; }
+  parts "$gr/hand/manipulate_block.xml" "robot0:hand mount" "$c/parts/shadow_hand.glb"
+  parts "$gr/adroit_hand/adroit_door.xml" forearm "$c/parts/adroit_hand.glb"
+  parts "$gr/fetch/reach.xml" robot0:base_link "$c/parts/fetch.glb"
+  parts "$d/suite/humanoid_CMU.xml" root "$c/parts/humanoid_CMU.glb"
+  parts "$d/suite/humanoid.xml" torso "$c/parts/humanoid.glb"
+  parts "$d/suite/quadruped.xml" torso "$c/parts/quadruped.glb"
+  parts "$d/locomotion/walkers/assets/rodent.xml" torso "$c/parts/rodent.glb"
+  # the dog is drawn with a skin, and its bone meshes hold 308,000 triangles:
+  # its collision primitives (group 3) instead
+  parts --groups 3 "$d/suite/dog.xml" torso "$c/parts/dog.glb"
+  parts "$d/suite/cheetah.xml" torso "$c/parts/cheetah.glb"
+  parts "$d/suite/walker.xml" torso "$c/parts/walker.glb"
+  parts "$d/suite/manipulator.xml" upper_arm "$c/parts/manipulator.glb"
+  cp "$gr/LICENSE.md" "$c/parts/LICENSE-gymnasium-robotics-assets.md"
+  cp "$(dirname "$d")"/dm_control-*.dist-info/licenses/LICENSE "$c/parts/LICENSE-dm-control"
+}
+
 corpus_derived() { # flat marker rigs made from real mocap (scripts/corpus/bvh2markers.py)
   mkdir -p "$c/derived"
   # CMU units are 1/0.45 inch: 56.444 mm
@@ -239,6 +264,7 @@ corpus() {
   corpus_bvhtoolbox
   corpus_dm_control
   corpus_gymnasium_robotics
+  corpus_parts
   corpus_derived
   (cd "$c" && find . -type f ! -name SHA256SUMS ! -name .complete | LC_ALL=C sort \
     | sed 's|^\./||' | xargs sha256sum > SHA256SUMS)

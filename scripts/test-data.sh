@@ -12,11 +12,13 @@ if [ -z "${RIGFIT_DATA:-}" ]; then
   export RIGFIT_DATA
 fi
 if [ -z "${RIGFIT_CORPUS:-}" ]; then
-  if [ -f "$RIGFIT_DATA/corpus/.complete" ]; then
+  # A corpus fetched before the many-part objects (data/surface_corpus.json) lacks parts/.
+  if [ -f "$RIGFIT_DATA/corpus/.complete" ] && [ -d "$RIGFIT_DATA/corpus/parts" ]; then
     RIGFIT_CORPUS="$RIGFIT_DATA/corpus"
   else
     RIGFIT_CORPUS="$(pwd)/target/test-data/corpus"
-    [ -f "$RIGFIT_CORPUS/.complete" ] || scripts/fetch-data.sh --corpus-only target/test-data
+    [ -f "$RIGFIT_CORPUS/.complete" ] && [ -d "$RIGFIT_CORPUS/parts" ] \
+      || scripts/fetch-data.sh --corpus-only target/test-data
   fi
   export RIGFIT_CORPUS
 fi

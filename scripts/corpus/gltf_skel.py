@@ -143,8 +143,9 @@ def write_glb(path, nodes, skin_joints=None, animations=(), skin_name="skeleton"
     skin_joints: node indices of the skin (default: every node).
     animations: list of {name, times [s], channels: [{node, path, values (flat list)}]}.
     mesh: None or {name, primitives: [{positions [(x, y, z)], joints [(4 skin-joint
-    indices)], weights [(4 floats)], indices [triangle vertex indices]}]}, skinned by the
-    skin on a node of its own at the scene root."""
+    indices)], weights [(4 floats)], indices [triangle vertex indices], optional extras (a
+    dict kept as the primitive's glTF extras)}]}, skinned by the skin on a node of its own
+    at the scene root."""
     if skin_joints is None:
         skin_joints = list(range(len(nodes)))
     children = [[] for _ in nodes]
@@ -202,8 +203,11 @@ def write_glb(path, nodes, skin_joints=None, animations=(), skin_name="skeleton"
             tris = prim["indices"]
             idx = buf.floats(list(tris), "SCALAR", len(tris), fmt="I", component=5125,
                              target=34963)
-            prims.append({"attributes": {"POSITION": pos, "JOINTS_0": jnt, "WEIGHTS_0": wgt},
-                          "indices": idx, "mode": 4})
+            gprim = {"attributes": {"POSITION": pos, "JOINTS_0": jnt, "WEIGHTS_0": wgt},
+                     "indices": idx, "mode": 4}
+            if prim.get("extras"):
+                gprim["extras"] = prim["extras"]
+            prims.append(gprim)
         doc["meshes"] = [{"name": mesh["name"], "primitives": prims}]
         gnodes.append({"name": mesh["name"], "mesh": 0, "skin": 0})
         doc["scenes"][0]["nodes"].append(len(gnodes) - 1)

@@ -207,7 +207,15 @@ def joint_spec(body, defaults, childclass, compiler):
     return spec
 
 
-def convert(model, root_name, out):
+class Skeleton:
+    """What `skeleton` reads from a model: the parsed model (root, compiler, defaults), the
+    glTF nodes, the joints-file entries, and which node each body of the subtree became."""
+
+    def __init__(self, **fields):
+        self.__dict__.update(fields)
+
+
+def skeleton(model, root_name, tool="mjcf2gltf"):
     root = load(model)
     compiler = Compiler(root)
     defaults = Defaults(root)
@@ -218,7 +226,7 @@ def convert(model, root_name, out):
             start = b
             break
     if start is None:
-        sys.exit(f"mjcf2gltf: {model}: no body named {root_name!r}")
+        sys.exit(f"{tool}: {model}: no body named {root_name!r}")
 
     def local(b):
         return (tuple(floats(b.get("pos", "0 0 0"))), compiler.orientation(b))
@@ -240,6 +248,7 @@ def convert(model, root_name, out):
 
     nodes = []
     specs = {}
+    bodies = []  # (body element, its node index), in node order
     ends = 0
 
     def visit(b, parent, tr):
@@ -247,6 +256,7 @@ def convert(model, root_name, out):
         index = len(nodes)
         name = b.get("name") or f"body{index}"
         nodes.append({"name": name, "parent": parent, "t": tr[0], "r": tr[1]})
+        bodies.append((b, index))
         if parent is not None:
             spec = joint_spec(b, defaults, childclass_of(b), compiler)
             if spec is not None:
@@ -268,13 +278,26 @@ def convert(model, root_name, out):
                 ends += 1
 
     visit(start, None, placement)
-    g.write_glb(out, nodes, generator="rigfit scripts/corpus/mjcf2gltf.py")
+    return Skeleton(model=model, root_name=root_name, root=root, compiler=compiler,
+                    defaults=defaults, childclass_of=childclass_of, nodes=nodes, specs=specs,
+                    bodies=bodies, ends=ends)
+
+
+def write(out, sk, generator, mesh=None):
+    """OUT.glb (the nodes, and the mesh if any) and its OUT.joints.json; returns the latter."""
+    g.write_glb(out, sk.nodes, generator=generator, mesh=mesh)
     sidecar = os.path.splitext(out)[0] + ".joints.json"
     with open(sidecar, "w") as f:
-        json.dump({"joints": specs}, f, indent=1, sort_keys=True)
+        json.dump({"joints": sk.specs}, f, indent=1, sort_keys=True)
         f.write("\n")
-    print(f"{out}: {len(nodes)} nodes ({ends} end nodes) from body {root_name!r} of {model}; "
-          f"{len(specs)} joints in {sidecar}")
+    return sidecar
+
+
+def convert(model, root_name, out):
+    sk = skeleton(model, root_name)
+    sidecar = write(out, sk, "rigfit scripts/corpus/mjcf2gltf.py")
+    print(f"{out}: {len(sk.nodes)} nodes ({sk.ends} end nodes) from body {root_name!r} of "
+          f"{model}; {len(sk.specs)} joints in {sidecar}")
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@
 //!
 //! `cargo run --release -p rigfit-testkit --example surface_corpus`
 //! (`SEEDS=N` seeds 0..N, default 1; `OBJECTS=id,id` some objects; `PAPER=1` the paper's
-//! method; `NO_LINKS=1` without contact links; `SIGMA`, `ANNEAL`, `ITERATIONS`, `ANCHOR`,
+//! method; `NO_LINKS=1` without contact links; `NO_CARRY=1` without carrying unseen patches; `SIGMA`, `ANNEAL`, `ITERATIONS`, `ANCHOR`,
 //! `STIFFNESS` set those options; `VERBOSE=1` every frame's mean and worst vertex and the
 //! truth's steps)
 
@@ -52,6 +52,9 @@ fn main() {
     }
     if let Some(v) = knob("STIFFNESS") {
         options.patches.contact_stiffness = v;
+    }
+    if std::env::var("NO_CARRY").is_ok() {
+        options.carry_unseen = false;
     }
     if std::env::var("NO_LINKS").is_ok() {
         options.patches.link_parts = false;

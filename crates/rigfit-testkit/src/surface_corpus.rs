@@ -201,6 +201,13 @@ pub fn track_parts(
             .map(|(p, q)| (p - q).norm() / diagonal)
             .collect();
         let frame_mean = errors.iter().sum::<f64>() / errors.len().max(1) as f64;
+        if std::env::var("TRACE").is_ok() {
+            eprintln!(
+                "frame {f}: mean {frame_mean:.4} iterations {} sigma {:.4}",
+                fit.iterations,
+                fit.sigma / diagonal
+            );
+        }
         if frame_means.iter().all(|&m| m < frame_mean) {
             worst_frame_errors = errors.clone();
         }

@@ -3,6 +3,7 @@
 //! Gauss-Newton step on eq. (15) per M-step, and `sigma` set by the M-step (eq. 15), falling
 //! no faster than the annealing rate.
 
+use super::carry::carry_unseen;
 use super::estep::{Observations, VertexTargets, e_step_predicted};
 use super::model::Predictions;
 use super::solve::{StepWeights, gauss_newton_step, patch_support};
@@ -11,7 +12,7 @@ use crate::engine::fitting_loop::{
     EmModel, Expectation, Maximisation, Schedule, Stage, Widths, continued_rotation, run_em,
 };
 use crate::math::{Point3, Vector3};
-use nalgebra::Rotation3;
+use nalgebra::{Rotation3, UnitQuaternion};
 
 impl SurfaceTracker {
     pub(super) fn track_in_pool(&mut self, data: &Observations) -> Result<FrameFit, SurfaceError> {
@@ -30,10 +31,15 @@ impl SurfaceTracker {
                 self.pose.rotation[k] = if support >= 1.0 {
                     continued
                 } else {
-                    let turn =
-                        Rotation3::from_matrix_unchecked(continued * last.rotation[k].transpose());
-                    Rotation3::from_scaled_axis(turn.scaled_axis() * support).into_inner()
-                        * last.rotation[k]
+                    // Part of the turn (a quaternion slerp: robust to rounding, unlike the
+                    // angle of a matrix's trace).
+                    let turn = UnitQuaternion::from_rotation_matrix(
+                        &Rotation3::from_matrix_unchecked(continued * last.rotation[k].transpose()),
+                    );
+                    let part = UnitQuaternion::identity()
+                        .try_slerp(&turn, support, 1e-9)
+                        .unwrap_or(turn);
+                    part.to_rotation_matrix().into_inner() * last.rotation[k]
                 };
                 self.pose.centre[k] =
                     last.centre[k] + (last.centre[k] - previous.centre[k]) * support;
@@ -81,15 +87,22 @@ impl SurfaceTracker {
         };
         let report = run_em(&mut frame, &schedule)?;
         let FrameEm {
-            positions, targets, ..
+            mut positions,
+            targets,
+            ..
         } = frame;
+        let support = patch_support(&self.model, &targets);
+        if self.options.carry_unseen && support.iter().any(|&s| s < 1.0) {
+            carry_unseen(&self.model, &last, &mut self.pose, &support);
+            positions = self.model.positions(&self.pose);
+        }
         if positions.iter().any(|p| p.iter().any(|x| !x.is_finite())) {
             // Never hand out a broken mesh: the next frame starts again from this one's start.
             self.pose = last;
             return Err(SurfaceError::Diverged);
         }
         self.previous = Some(last);
-        self.support = patch_support(&self.model, &targets);
+        self.support = support;
         let total = targets.total_weight();
         let rms = if total > 0.0 {
             (targets.weighted_residual / total).sqrt()
