@@ -42,7 +42,7 @@ def sphere(rings=12, segments=16, radius=1.0):
 def test_the_defaults_are_the_command_lines_in_the_signature_and_the_stubs():
     v, f = sphere()
     options = rigfit.SurfaceTracker(v, f).options
-    assert options == {"patch_radius": 0.06, "outliers": 0.15, "rigidity": 4.0, "iterations": 12, "merge": 0.0, "coarse": 4}
+    assert options == {"patch_radius": 0.06, "outliers": 0.15, "rigidity": 4.0, "iterations": 25, "merge": 0.0, "coarse": 4}
     signature = inspect.signature(rigfit.SurfaceTracker)
     assert {k: signature.parameters[k].default for k in OPTIONS} == options
     stubs = ast.parse(Path(rigfit.__file__).with_name("__init__.pyi").read_text())

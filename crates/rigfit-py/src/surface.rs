@@ -125,7 +125,7 @@ impl PySurfaceTracker {
         iterations = SurfaceOptions::default().max_iterations,
         merge = SurfaceOptions::default().merge_cell,
         coarse = SurfaceOptions::default().coarse_stride,
-    ), text_signature = "(vertices, faces, *, patch_radius=0.06, outliers=0.15, rigidity=4.0, iterations=12, merge=0.0, coarse=4)")]
+    ), text_signature = "(vertices, faces, *, patch_radius=0.06, outliers=0.15, rigidity=4.0, iterations=25, merge=0.0, coarse=4)")]
     fn new(
         py: Python<'_>,
         vertices: &Bound<'_, PyAny>,

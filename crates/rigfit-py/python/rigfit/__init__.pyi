@@ -269,7 +269,7 @@ class SurfaceTracker:
         patch_radius: float = 0.06,
         outliers: float = 0.15,
         rigidity: float = 4.0,
-        iterations: int = 12,
+        iterations: int = 25,
         merge: float = 0.0,
         coarse: int = 4,
     ) -> None:
