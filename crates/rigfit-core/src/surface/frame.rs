@@ -62,9 +62,31 @@ impl SurfaceTracker {
         let thinned = self.options.coarse_stride > 1
             && coarse_iterations > 0
             && data.points.len() / self.options.coarse_stride >= 8 * self.model.patch_count();
+        // After fast motion the first width covers part of the last frame's largest step of
+        // a well-seen patch: the motion continued misses by about as much as it changes.
+        let fast = match (&self.previous, self.options.fast_start > 0.0) {
+            (Some(previous), true) => {
+                let radius = self.options.patches.radius * diagonal;
+                (0..self.model.patch_count())
+                    .filter(|&k| self.support.get(k).is_some_and(|&s| s >= 0.5))
+                    .map(|k| {
+                        let turn = UnitQuaternion::from_rotation_matrix(
+                            &Rotation3::from_matrix_unchecked(
+                                last.rotation[k] * previous.rotation[k].transpose(),
+                            ),
+                        );
+                        (last.centre[k] - previous.centre[k]).norm() + turn.angle() * radius
+                    })
+                    .fold(0.0, f64::max)
+                    * self.options.fast_start
+            }
+            _ => 0.0,
+        };
         let schedule = Schedule {
             widths: Widths::Estimated {
-                start: (self.options.initial_sigma * diagonal).max(min_sigma),
+                start: (self.options.initial_sigma * diagonal)
+                    .max(fast)
+                    .max(min_sigma),
                 floor: min_sigma,
                 fall: self.options.anneal,
                 preliminary: if thinned { coarse_iterations } else { 0 },
