@@ -6,6 +6,8 @@
 #
 #   scripts/bench-surface-peers.sh [FRAMES [PEER...]]   (default 12 frames: 0-11, two hole
 #   frames included; PEER picks among rustcpd, cycpd, nricp, pycpd, all by default)
+#   PARTS="dmc-quadruped dmc-humanoid" runs those objects of the many-part surface corpus
+#   (data/surface_corpus.json, issue 22) instead of the two skinned characters.
 #
 # Every tool runs on one thread (../shared/peers.md): rigfit, rustcpd (rayon) and the numpy
 # ones (BLAS) alike. THREADS=2 gives every tool both cores instead. RUNS=N runs every tool N
@@ -37,11 +39,18 @@ sequence=$root/target/release/examples/surface_sequence
 
 echo "| asset (clip) | method | mean error (% diag) | p95 (% diag) | ms/frame |"
 echo "|---|---|---|---|---|"
-for spec in "assimp/BCN_Epileptic.glb jump bcn" "assimp/Testwuson.glb run wuson"; do
+specs=("assimp/BCN_Epileptic.glb jump bcn 10000" "assimp/Testwuson.glb run wuson 10000")
+if [ -n "${PARTS:-}" ]; then
+  # Many-part objects of the surface corpus (issue 22): their fast motion, 8,000 points.
+  specs=()
+  for id in $PARTS; do specs+=("corpus:$id - $id 8000"); done
+fi
+for spec in "${specs[@]}"; do
   set -- $spec
   dir=$work/$3
   rm -rf "$dir" && mkdir -p "$dir"
-  "$sequence" "$data/$1" "$2" "$dir/seq" 30 10000 > /dev/null
+  case $1 in corpus:*) asset=$1 ;; *) asset=$data/$1 ;; esac
+  "$sequence" "$asset" "$2" "$dir/seq" 30 "$4" > /dev/null
   scans=$(for f in $(seq 0 $((frames - 1))); do printf '%s/seq/scan_%04d.ply ' "$dir" "$f"; done)
   run_rigfit="\"$rigfit\" surface \"$dir/seq/reference.ply\" $scans -o \"$dir/rigfit\" --report \"$dir/rigfit.json\""
   eval "$run_rigfit" > /dev/null

@@ -8,7 +8,7 @@
 //!
 //! `cargo run --release -p rigfit-testkit --example surface_corpus`
 //! (`SEEDS=N` seeds 0..N, default 1; `OBJECTS=id,id` some objects; `PAPER=1` the paper's
-//! method; `NO_LINKS=1` without contact links; `NO_CARRY=1` without carrying unseen patches; `SIGMA`, `ANNEAL`, `ITERATIONS`, `FAST`, `ANCHOR`,
+//! method; `NO_LINKS=1` without contact links; `NO_CARRY=1` without carrying unseen patches; `SIGMA`, `ANNEAL`, `ITERATIONS`, `FAST`, `COARSE_STIFFNESS`, `ANCHOR`,
 //! `STIFFNESS` set those options; `VERBOSE=1` every frame's mean and worst vertex and the
 //! truth's steps)
 
@@ -46,6 +46,9 @@ fn main() {
     }
     if let Some(v) = knob("ITERATIONS") {
         options.max_iterations = v as usize;
+    }
+    if let Some(v) = knob("COARSE_STIFFNESS") {
+        options.coarse_stiffness = v;
     }
     if let Some(v) = knob("FAST") {
         options.fast_start = v;

@@ -193,6 +193,11 @@ impl EmModel for FrameEm<'_, '_> {
         let weights = StepWeights {
             data: 1.0 / (sigma * sigma),
             rigidity: tracker.options.rigidity / (radius * radius),
+            within_pieces: if stage.preliminary {
+                tracker.options.coarse_stiffness
+            } else {
+                1.0
+            },
             damping: tracker.options.damping,
             tangential: tracker.options.tangential,
             relaxation: if stage.preliminary {

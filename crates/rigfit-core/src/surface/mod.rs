@@ -131,6 +131,10 @@ pub struct SurfaceOptions {
     /// of a well-seen patch (its centre's move plus its turn times the patch radius); 0
     /// keeps `initial_sigma` alone.
     pub fast_start: f64,
+    /// In a frame's first, thinned iterations the rigidity between patches of one piece is
+    /// this many times `rigidity` (each piece moves nearly as a whole first, then bends);
+    /// 1 keeps it.
+    pub coarse_stiffness: f64,
 }
 
 impl SurfaceOptions {
@@ -148,6 +152,7 @@ impl SurfaceOptions {
             anchor: 0.0,
             carry_unseen: false,
             fast_start: 0.0,
+            coarse_stiffness: 1.0,
             ..Self::default()
         };
         options.patches.link_parts = false;
@@ -181,6 +186,7 @@ impl Default for SurfaceOptions {
             carry_unseen: true,
             // 0.5 helps the corpus's tune half and costs its held-out half (BENCHMARKS.md).
             fast_start: 0.0,
+            coarse_stiffness: 1.0,
         }
     }
 }

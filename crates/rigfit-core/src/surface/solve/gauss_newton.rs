@@ -21,6 +21,10 @@ pub struct StepWeights {
     pub data: f64,
     /// Weight of the rigidity energy (eq. 4).
     pub rigidity: f64,
+    /// The rigidity between patches of one piece is `rigidity` times this (1 but in the
+    /// first, coarse iterations of a frame, see `SurfaceOptions::coarse_stiffness`); contact
+    /// links keep `rigidity`.
+    pub within_pieces: f64,
     /// Levenberg-Marquardt damping, relative to each diagonal entry.
     pub damping: f64,
     /// Weight of the data residual's component along the surface, against 1 across it:
@@ -294,7 +298,10 @@ fn add_rigidity(
     for pair in &system.rigidity_pairs {
         let (k, l, moments) = (pair.k, pair.l, &pair.moments);
         let (rk, rl) = (&pose.rotation[k], &pose.rotation[l]);
-        let w = weights.rigidity;
+        let w = match pair.contact {
+            Some(_) => weights.rigidity,
+            None => weights.rigidity * weights.within_pieces,
+        };
         let block = |scale: f64, moments: &OffsetMoments, ra: &Matrix3, rb: &Matrix3| {
             let mut block: Block6 = [0.0; 36];
             moments.add_to_block(&mut block, scale, ra, rb);

@@ -40,7 +40,6 @@ pub(super) struct RigidityPair {
     pub(super) l: usize,
     /// The contact link it comes from (an index into `PatchModel::contacts`), or `None`
     /// for neighbouring patches of one piece.
-    #[cfg_attr(not(test), allow(dead_code))]
     pub(super) contact: Option<usize>,
     pub(super) moments: [OffsetMoments; 3],
 }

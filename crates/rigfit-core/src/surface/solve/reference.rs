@@ -161,8 +161,13 @@ pub fn reference_step(
                     })
                     .collect(),
             };
+            let scale = if contact.is_some() {
+                1.0
+            } else {
+                weights.within_pieces
+            };
             for (v, beta) in vertices {
-                let beta = weights.rigidity * beta;
+                let beta = weights.rigidity * scale * beta;
                 let qk = model.offset(pose, k, v);
                 let ql = model.offset(pose, l, v);
                 let r = (pose.centre[k] + qk) - (pose.centre[l] + ql);
@@ -291,16 +296,18 @@ fn check_moment_assembly(reference: &TriMesh) {
         targets.weighted_square[v] = 0.0;
     }
     let anchor = model.rest_pose();
-    for (data, rigidity, tangential, anchored) in [
-        (40.0, 0.0, 1.0, 0.0),
-        (40.0, 0.0, 0.0, 0.0),
-        (0.0, 3.0, 1.0, 0.0),
-        (40.0, 3.0, 0.3, 0.0),
-        (40.0, 3.0, 0.3, 0.5),
+    for (data, rigidity, tangential, anchored, within_pieces) in [
+        (40.0, 0.0, 1.0, 0.0, 1.0),
+        (40.0, 0.0, 0.0, 0.0, 1.0),
+        (0.0, 3.0, 1.0, 0.0, 1.0),
+        (40.0, 3.0, 0.3, 0.0, 1.0),
+        (40.0, 3.0, 0.3, 0.5, 1.0),
+        (40.0, 3.0, 0.3, 0.0, 20.0),
     ] {
         let weights = StepWeights {
             data,
             rigidity,
+            within_pieces,
             damping: 1e-3,
             tangential,
             relaxation: 1.0,
