@@ -10,9 +10,14 @@
 //! (`SEEDS=N` seeds 0..N, default 1; `OBJECTS=id,id` some objects; `PAPER=1` the paper's
 //! method; `NO_LINKS=1` without contact links; `NO_CARRY=1` without carrying unseen patches; `SIGMA`, `ANNEAL`, `ITERATIONS`, `FAST`, `COARSE_STIFFNESS`, `ANCHOR`,
 //! `STIFFNESS` set those options; `VERBOSE=1` every frame's mean and worst vertex and the
-//! truth's steps)
+//! truth's steps; `PLOT=DIR` writes DIR/surface_parts_frames.png, each object's mean per
+//! frame, `_paper` with `PAPER=1`)
+
+#[path = "common/plot_file.rs"]
+mod plot_file;
 
 use rigfit_core::surface::SurfaceOptions;
+use rigfit_render::{Chart, Series, line_chart};
 use rigfit_testkit::corpus::Half;
 use rigfit_testkit::surface_corpus::{PartsOptions, load, parts_case, track_parts};
 
@@ -72,6 +77,7 @@ fn main() {
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut tally = std::collections::BTreeMap::<Half, (usize, usize)>::new();
+    let mut curves: Vec<Series> = Vec::new();
     for entry in &corpus.rigs {
         if chosen.as_ref().is_some_and(|c| !c.contains(&entry.id)) {
             continue;
@@ -148,6 +154,15 @@ fn main() {
                     );
                 }
             }
+            curves.push(Series::new(
+                format!("{} ({})", entry.id, entry.half.name()),
+                score
+                    .frame_means
+                    .iter()
+                    .enumerate()
+                    .map(|(f, m)| (f as f64, m * 100.0))
+                    .collect(),
+            ));
             let pass = score.passes();
             let t = tally.entry(entry.half).or_default();
             t.0 += usize::from(pass);
@@ -173,5 +188,26 @@ fn main() {
     }
     for (half, (pass, total)) in tally {
         println!("{}: {pass}/{total} within the bar", half.name());
+    }
+    if let Ok(dir) = std::env::var("PLOT") {
+        let paper = std::env::var("PAPER").is_ok();
+        let mut chart = Chart::new(
+            if paper {
+                "Many-part objects: mean vertex error per frame, the paper's method"
+            } else {
+                "Many-part objects: mean vertex error per frame (rigfit)"
+            },
+            "frame (a part unseen in frames 10-19)",
+            "mean error (% of the diagonal)",
+        );
+        chart.y_log = true;
+        chart.series = curves;
+        let name = if paper {
+            "surface_parts_frames_paper.png"
+        } else {
+            "surface_parts_frames.png"
+        };
+        std::fs::create_dir_all(&dir).expect("the plot folder");
+        plot_file::write(&line_chart(&chart), std::path::Path::new(&dir), name);
     }
 }
