@@ -9,7 +9,7 @@
 //! `cargo run --release -p rigfit-testkit --example surface_corpus`
 //! (`SEEDS=N` seeds 0..N, default 1; `OBJECTS=id,id` some objects; `PAPER=1` the paper's
 //! method; `NO_LINKS=1` without contact links; `NO_CARRY=1` without carrying unseen patches; `SIGMA`, `ANNEAL`, `ITERATIONS`, `FAST`, `COARSE_STIFFNESS`, `ANCHOR`,
-//! `STIFFNESS` set those options; `VERBOSE=1` every frame's mean and worst vertex and the
+//! `STIFFNESS`, `CONTACT_WIDTH`, `PART_GAP` set those options; `VERBOSE=1` every frame's mean and worst vertex and the
 //! truth's steps; `PLOT=DIR` writes DIR/surface_parts_frames.png, each object's mean per
 //! frame, `_paper` with `PAPER=1`)
 
@@ -60,6 +60,12 @@ fn main() {
     }
     if let Some(v) = knob("ANCHOR") {
         options.anchor = v;
+    }
+    if let Some(v) = knob("CONTACT_WIDTH") {
+        options.patches.contact_width = v;
+    }
+    if let Some(v) = knob("PART_GAP") {
+        options.patches.part_gap = v;
     }
     if let Some(v) = knob("STIFFNESS") {
         options.patches.contact_stiffness = v;
