@@ -140,6 +140,21 @@ pub fn exp_rotation(w: &Vector3) -> Quat {
     Quat::from_scaled_axis(*w)
 }
 
+/// A rotation matrix as a unit quaternion (Shepperd's method: robust to the rounding that
+/// leaves a product of rotations slightly off orthogonal, where an angle taken from the
+/// trace can be NaN).
+pub fn rotation_quat(m: &Matrix3) -> Quat {
+    Quat::from_rotation_matrix(&nalgebra::Rotation3::from_matrix_unchecked(*m))
+}
+
+/// The rotation a fraction `t` of the turn from `from` to `to`: `(to from^T)^t from`, by
+/// quaternion slerp (the whole turn when the two are opposite).
+pub fn rotation_toward(from: &Matrix3, to: &Matrix3, t: f64) -> Matrix3 {
+    let turn = rotation_quat(&(to * from.transpose()));
+    let part = Quat::identity().try_slerp(&turn, t, 1e-9).unwrap_or(turn);
+    part.to_rotation_matrix().into_inner() * from
+}
+
 /// Two unit vectors completing the unit vector `axis` to a right-handed orthonormal basis
 /// `(axis, u, v)`.
 pub fn perpendicular_basis(axis: &Vector3) -> (Vector3, Vector3) {
@@ -157,6 +172,27 @@ pub fn perpendicular_basis(axis: &Vector3) -> (Vector3, Vector3) {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    #[test]
+    fn rotation_toward_goes_the_fraction_of_the_turn() {
+        let from = Quat::from_euler_angles(0.2, -0.4, 1.0)
+            .to_rotation_matrix()
+            .into_inner();
+        let turn = Quat::from_axis_angle(&Vector3::z_axis(), 0.8);
+        let to = turn.to_rotation_matrix().into_inner() * from;
+        assert_relative_eq!(rotation_toward(&from, &to, 0.0), from, epsilon = 1e-12);
+        assert_relative_eq!(rotation_toward(&from, &to, 1.0), to, epsilon = 1e-12);
+        let half = Quat::from_axis_angle(&Vector3::z_axis(), 0.4)
+            .to_rotation_matrix()
+            .into_inner()
+            * from;
+        assert_relative_eq!(rotation_toward(&from, &to, 0.5), half, epsilon = 1e-12);
+        assert_relative_eq!(
+            rotation_quat(&to).angle(),
+            Quat::from_rotation_matrix(&nalgebra::Rotation3::from_matrix_unchecked(to)).angle(),
+            epsilon = 1e-12
+        );
+    }
 
     #[test]
     fn trs_matrix_round_trip() {

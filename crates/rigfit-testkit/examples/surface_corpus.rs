@@ -19,7 +19,7 @@ mod plot_file;
 use rigfit_core::surface::SurfaceOptions;
 use rigfit_render::{Chart, Series, line_chart};
 use rigfit_testkit::corpus::Half;
-use rigfit_testkit::surface_corpus::{PartsOptions, load, parts_case, track_parts};
+use rigfit_testkit::surface_corpus::{PartsOptions, load, parts_case, piece_labels, track_parts};
 
 fn main() {
     let corpus = match load() {
@@ -139,13 +139,7 @@ fn main() {
             }
             if std::env::var("VERBOSE").is_ok_and(|v| v == "2") {
                 // Each piece's mean error in the worst frame.
-                let mesh = &case.sequence.reference;
-                let graph = rigfit_core::surface::patches::VertexGraph::new(
-                    &mesh.vertices,
-                    &mesh.triangles,
-                    1e-7 * case.sequence.diagonal,
-                );
-                let labels = rigfit_core::surface::patches::connected_components(&graph);
+                let labels = piece_labels(&case.sequence.reference, 1e-7 * case.sequence.diagonal);
                 let mut pieces = std::collections::BTreeMap::<u32, (usize, usize, f64)>::new();
                 for (v, &l) in labels.iter().enumerate() {
                     let e = pieces.entry(l).or_insert((v, 0, 0.0));

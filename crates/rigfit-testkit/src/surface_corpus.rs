@@ -13,6 +13,8 @@ use std::time::Instant;
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 
+use rigfit_core::geometry::TriMesh;
+use rigfit_core::surface::patches::{VertexGraph, connected_components};
 use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker};
 
 use crate::corpus::{Corpus, CorpusError, RigEntry};
@@ -109,11 +111,16 @@ pub fn parts_case(
     })
 }
 
+/// The connected piece of each vertex of a mesh, vertices closer than `weld_tolerance`
+/// joined (0: as the file has them).
+pub fn piece_labels(mesh: &TriMesh, weld_tolerance: f64) -> Vec<u32> {
+    let graph = VertexGraph::new(&mesh.vertices, &mesh.triangles, weld_tolerance);
+    connected_components(&graph)
+}
+
 /// Connected pieces of a mesh (coincident vertices not welded: as the file has them).
-fn piece_count(mesh: &rigfit_core::geometry::TriMesh) -> usize {
-    let graph =
-        rigfit_core::surface::patches::VertexGraph::new(&mesh.vertices, &mesh.triangles, 0.0);
-    let labels = rigfit_core::surface::patches::connected_components(&graph);
+fn piece_count(mesh: &TriMesh) -> usize {
+    let labels = piece_labels(mesh, 0.0);
     let mut used: Vec<u32> = mesh
         .triangles
         .iter()
@@ -201,13 +208,6 @@ pub fn track_parts(
             .map(|(p, q)| (p - q).norm() / diagonal)
             .collect();
         let frame_mean = errors.iter().sum::<f64>() / errors.len().max(1) as f64;
-        if std::env::var("TRACE").is_ok() {
-            eprintln!(
-                "frame {f}: mean {frame_mean:.4} iterations {} sigma {:.4}",
-                fit.iterations,
-                fit.sigma / diagonal
-            );
-        }
         if frame_means.iter().all(|&m| m < frame_mean) {
             worst_frame_errors = errors.clone();
         }

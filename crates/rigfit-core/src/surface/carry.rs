@@ -10,9 +10,8 @@
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
-use nalgebra::{Rotation3, UnitQuaternion};
-
 use super::model::{PatchModel, PatchPose};
+use crate::math::rotation_toward;
 
 /// A patch waiting to be settled, by its support (best first).
 #[derive(Clone, Copy, PartialEq)]
@@ -100,14 +99,7 @@ pub fn carry_unseen(model: &PatchModel, last: &PatchPose, pose: &mut PatchPose, 
             let turn = pose.rotation[l] * last.rotation[l].transpose();
             let carried_rotation = turn * last.rotation[k];
             let carried_centre = pose.centre[l] + turn * (last.centre[k] - last.centre[l]);
-            let from = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(
-                pose.rotation[k],
-            ));
-            let to = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(
-                carried_rotation,
-            ));
-            let blended = from.try_slerp(&to, lack, 1e-9).unwrap_or(to);
-            pose.rotation[k] = blended.to_rotation_matrix().into_inner();
+            pose.rotation[k] = rotation_toward(&pose.rotation[k], &carried_rotation, lack);
             let centre = pose.centre[k];
             pose.centre[k] = centre + (carried_centre - centre) * lack;
         }

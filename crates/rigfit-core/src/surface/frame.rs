@@ -11,8 +11,7 @@ use super::{FrameFit, SurfaceError, SurfaceTracker};
 use crate::engine::fitting_loop::{
     EmModel, Expectation, Maximisation, Schedule, Stage, Widths, continued_rotation, run_em,
 };
-use crate::math::{Point3, Vector3};
-use nalgebra::{Rotation3, UnitQuaternion};
+use crate::math::{Point3, Vector3, rotation_quat, rotation_toward};
 
 impl SurfaceTracker {
     pub(super) fn track_in_pool(&mut self, data: &Observations) -> Result<FrameFit, SurfaceError> {
@@ -31,15 +30,7 @@ impl SurfaceTracker {
                 self.pose.rotation[k] = if support >= 1.0 {
                     continued
                 } else {
-                    // Part of the turn (a quaternion slerp: robust to rounding, unlike the
-                    // angle of a matrix's trace).
-                    let turn = UnitQuaternion::from_rotation_matrix(
-                        &Rotation3::from_matrix_unchecked(continued * last.rotation[k].transpose()),
-                    );
-                    let part = UnitQuaternion::identity()
-                        .try_slerp(&turn, support, 1e-9)
-                        .unwrap_or(turn);
-                    part.to_rotation_matrix().into_inner() * last.rotation[k]
+                    rotation_toward(&last.rotation[k], &continued, support)
                 };
                 self.pose.centre[k] =
                     last.centre[k] + (last.centre[k] - previous.centre[k]) * support;
@@ -70,11 +61,8 @@ impl SurfaceTracker {
                 (0..self.model.patch_count())
                     .filter(|&k| self.support.get(k).is_some_and(|&s| s >= 0.5))
                     .map(|k| {
-                        let turn = UnitQuaternion::from_rotation_matrix(
-                            &Rotation3::from_matrix_unchecked(
-                                last.rotation[k] * previous.rotation[k].transpose(),
-                            ),
-                        );
+                        let turn =
+                            rotation_quat(&(last.rotation[k] * previous.rotation[k].transpose()));
                         (last.centre[k] - previous.centre[k]).norm() + turn.angle() * radius
                     })
                     .fold(0.0, f64::max)
@@ -103,7 +91,7 @@ impl SurfaceTracker {
             predictions,
             targets: VertexTargets::default(),
             total: 0.0,
-            anchor: last.clone(),
+            anchor: (self.options.anchor > 0.0).then_some(&last),
             tracker: self,
             data,
         };
@@ -153,8 +141,9 @@ struct FrameEm<'t, 'd> {
     /// The last E-step's per-vertex targets and their total weight.
     targets: VertexTargets,
     total: f64,
-    /// The last frame's pose: patches short of data are pulled toward it.
-    anchor: super::PatchPose,
+    /// The last frame's pose, when patches short of data are pulled toward it
+    /// (`SurfaceOptions::anchor`).
+    anchor: Option<&'d super::PatchPose>,
 }
 
 impl EmModel for FrameEm<'_, '_> {
@@ -215,7 +204,7 @@ impl EmModel for FrameEm<'_, '_> {
             &self.normals,
             &self.targets,
             &weights,
-            Some(&self.anchor),
+            self.anchor,
         )?;
         self.predictions = tracker.model.predictions(&tracker.pose);
         let moved_to = tracker.model.blended_positions(&self.predictions);
