@@ -8,10 +8,13 @@
 //!
 //! `cargo run --release -p rigfit-testkit --example surface_corpus`
 //! (`SEEDS=N` seeds 0..N, default 1; `OBJECTS=id,id` some objects; `PAPER=1` the paper's
-//! method; `NO_LINKS=1` without contact links; `NO_CARRY=1` without carrying unseen patches; `SIGMA`, `ANNEAL`, `ITERATIONS`, `FAST`, `COARSE_STIFFNESS`, `ANCHOR`,
-//! `STIFFNESS`, `CONTACT_WIDTH`, `PART_GAP` set those options; `VERBOSE=1` every frame's mean and worst vertex and the
-//! truth's steps; `PLOT=DIR` writes DIR/surface_parts_frames.png, each object's mean per
-//! frame, `_paper` with `PAPER=1`)
+//! method; `NO_LINKS=1` without contact links; `NO_CARRY=1` without carrying unseen
+//! patches; `SIGMA`, `ANNEAL`, `ITERATIONS`, `MERGE`, `TOLERANCE`, `STRIDE`, `CANDIDATES`,
+//! `CUTOFF`, `HOLD`, `COARSE_ITERATIONS`, `FAST`, `COARSE_STIFFNESS`, `ANCHOR`, `STIFFNESS`,
+//! `CONTACT_WIDTH`, `PART_GAP` set those options; `VERBOSE=1` every frame's mean and worst
+//! vertex and the truth's steps, `VERBOSE=2` also each piece's mean in the worst frame;
+//! `PLOT=DIR` writes DIR/surface_parts_frames.png, each object's mean per frame, `_paper`
+//! with `PAPER=1`)
 
 #[path = "common/plot_file.rs"]
 mod plot_file;
@@ -51,6 +54,27 @@ fn main() {
     }
     if let Some(v) = knob("ITERATIONS") {
         options.max_iterations = v as usize;
+    }
+    if let Some(v) = knob("HOLD") {
+        options.hold_while_moving = v;
+    }
+    if let Some(v) = knob("CUTOFF") {
+        options.data.cutoff_sigmas = v;
+    }
+    if let Some(v) = knob("CANDIDATES") {
+        options.data.max_candidates = v as usize;
+    }
+    if let Some(v) = knob("MERGE") {
+        options.merge_cell = v;
+    }
+    if let Some(v) = knob("TOLERANCE") {
+        options.tolerance = v;
+    }
+    if let Some(v) = knob("STRIDE") {
+        options.coarse_stride = v as usize;
+    }
+    if let Some(v) = knob("COARSE_ITERATIONS") {
+        options.coarse_iterations = v as usize;
     }
     if let Some(v) = knob("COARSE_STIFFNESS") {
         options.coarse_stiffness = v;

@@ -92,12 +92,15 @@ pub enum Widths {
     List(Vec<f64>),
     /// One level whose width the M-step sets: `max(estimate, fall * sigma, floor)` from
     /// `start` (Cagniart eq. 15, annealed). The first `preliminary` iterations never end the
-    /// loop by convergence.
+    /// loop by convergence. While the model still travels (its last M-step moved it more
+    /// than `hold` times the width), the width does not fall, so that a part on its way to
+    /// its data is not cut off from it (0: it always falls).
     Estimated {
         start: f64,
         floor: f64,
         fall: f64,
         preliminary: usize,
+        hold: f64,
     },
 }
 
@@ -206,10 +209,16 @@ pub fn run_em<M: EmModel>(model: &mut M, schedule: &Schedule) -> Result<LoopRepo
             // A width the data supports falls no faster than the annealing rate allows; the
             // loop cannot end while the rate holds it up.
             let mut held_up = false;
-            if let (Widths::Estimated { floor, fall, .. }, Some(estimate)) =
-                (&schedule.widths, step.sigma_estimate)
+            if let (
+                Widths::Estimated {
+                    floor, fall, hold, ..
+                },
+                Some(estimate),
+            ) = (&schedule.widths, step.sigma_estimate)
             {
                 held_up = estimate < sigma * fall && sigma > *floor;
+                let travelling = *hold > 0.0 && step.moved > hold * sigma;
+                let fall = if travelling { 1.0 } else { *fall };
                 sigma = estimate.max(sigma * fall).max(*floor);
             }
             let converged = schedule
@@ -313,6 +322,7 @@ mod tests {
                 floor: 0.1,
                 fall: 0.5,
                 preliminary: 1,
+                hold: 0.0,
             },
             rounds: 0,
             final_rounds: 20,
@@ -327,6 +337,28 @@ mod tests {
         assert!(model.seen[0].preliminary && !model.seen[1].preliminary);
         assert_eq!(report.sigma, 0.1);
         assert_eq!(report.ending, Ending::Converged);
+    }
+
+    #[test]
+    fn an_estimated_width_holds_while_the_model_travels() {
+        let schedule = Schedule {
+            widths: Widths::Estimated {
+                start: 1.0,
+                floor: 0.1,
+                fall: 0.5,
+                preliminary: 0,
+                hold: 0.4,
+            },
+            rounds: 0,
+            final_rounds: 20,
+            tolerance: Some(1e-3),
+        };
+        // The first step moves 0.5, more than 0.4 of the width: the width stays; the next
+        // ones move less than that and it falls at the annealing rate.
+        let mut model = halving(Some(1e-6));
+        run_em(&mut model, &schedule).expect("runs");
+        let sigmas: Vec<f64> = model.seen.iter().map(|s| s.sigma).collect();
+        assert_eq!(&sigmas[..4], &[1.0, 1.0, 0.5, 0.25]);
     }
 
     #[test]

@@ -2,9 +2,9 @@
 //! is several disconnected pieces (robot links, props, a character split into meshes).
 //! Patches never cross or blend across pieces, so a piece has no rigidity term (eq. 4)
 //! with the rest and drifts on whatever points it gets. Pieces that touch or nearly touch
-//! are linked instead: each piece to its nearest pieces along a minimum spanning forest of
-//! the gaps between them (no link longer than the largest gap), so that a link joins a part
-//! to the one it is mounted on rather than to whatever happens to pass near it. A link is a
+//! are linked instead: each piece hangs from the nearest piece larger than itself (no link
+//! longer than the largest gap), so that a link joins a part to the one it is mounted on
+//! rather than to whatever happens to pass near it, and the links form a forest. A link is a
 //! rigidity term over the vertices at the contact, each predicted by the patch it belongs
 //! to and by the patch of its nearest vertex across the gap: the two pieces may turn about
 //! the contact (a joint) but not come apart.
@@ -36,7 +36,7 @@ struct Gap {
 
 /// The contact links of a reference cut into patches. `component` is each vertex's piece,
 /// `vertex_patch` each vertex's patch. Pieces whose gap is at most `largest_gap` may be
-/// linked (along the minimum spanning forest of the gaps); a vertex is at the contact when
+/// linked (each to the nearest larger piece); a vertex is at the contact when
 /// it lies within the gap plus `contact_width` of the other piece, and weighs `weight` in
 /// the rigidity term.
 pub fn contact_links(
@@ -184,7 +184,7 @@ mod tests {
     }
 
     #[test]
-    fn pieces_are_linked_to_their_nearest_neighbour_along_a_spanning_forest() {
+    fn each_piece_hangs_from_its_nearest_larger_neighbour() {
         // Three blocks in a row, gaps 0.1 and 0.3, and a fourth far away.
         let mut rest = block(5, [0.0; 3]);
         rest.extend(block(5, [1.1, 0.0, 0.0]));

@@ -78,6 +78,7 @@ impl SurfaceTracker {
                 floor: min_sigma,
                 fall: self.options.anneal,
                 preliminary: if thinned { coarse_iterations } else { 0 },
+                hold: self.options.hold_while_moving,
             },
             rounds: 0,
             final_rounds: self.options.max_iterations,
