@@ -172,7 +172,9 @@ def main():
     reference, faces = load_mesh(seq_dir / "reference.ply")
     scans = [load_points(seq_dir / f"scan_{f:04d}.ply") for f in range(frames)]
     truths = [load_mesh(seq_dir / f"truth_{f:04d}.ply")[0] for f in range(frames)]
-    name = f"{Path(meta['asset']).name} ({meta['clip']})"
+    name = Path(meta['asset']).name
+    if meta.get('clip'):
+        name += f" ({meta['clip']})"
 
     # RUNS > 1: every tool runs that many times, rigfit and the peers taking turns (rigfit
     # again through the RIGFIT_RERUN command), and the time shown is the median with every
@@ -191,7 +193,7 @@ def main():
     peers = [(label, track) for label, track in peers if not only or any(o in label for o in only)]
     scores = {}
     times = {label: [] for label in ["rigfit surface"] + [label for label, _ in peers]}
-    failed = set()
+    failed = {}
     for run in range(runs):
         if run > 0:
             subprocess.run(rerun, shell=True, check=True, stdout=subprocess.DEVNULL)
@@ -208,9 +210,14 @@ def main():
             t0 = time.perf_counter()
             try:
                 fitted = track(reference, faces, scans, diagonal, outliers)
-            except Exception as e:
-                print(f"{label} failed: {e}", file=sys.stderr)
-                failed.add(label)
+            except (KeyboardInterrupt, SystemExit):
+                raise
+            except BaseException as e:
+                # A peer's own panic (a Rust extension's PanicException is not an
+                # Exception) fails that peer on this object, not the comparison.
+                reason = str(e).splitlines()[0] if str(e) else type(e).__name__
+                print(f"{label} failed: {reason}", file=sys.stderr)
+                failed[label] = reason
                 continue
             times[label].append((time.perf_counter() - t0) / frames)
             if run == 0:
@@ -230,7 +237,9 @@ def main():
             rows.append((label, *scores[label], shown(label)))
     for label, mean, p95, ms in rows:
         print(f"| {name} | {label} | {mean:.3f} | {p95:.3f} | {ms} |")
-        sys.stdout.flush()
+    for label, reason in failed.items():
+        print(f"| {name} | {label} | failed: {reason[:80]} | - | - |")
+    sys.stdout.flush()
 
 
 if __name__ == "__main__":
