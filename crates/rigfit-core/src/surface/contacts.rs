@@ -4,7 +4,9 @@
 //! with the rest and drifts on whatever points it gets. Pieces that touch or nearly touch
 //! are linked instead: each piece hangs from the nearest piece larger than itself (no link
 //! longer than the largest gap), so that a link joins a part to the one it is mounted on
-//! rather than to whatever happens to pass near it, and the links form a forest. A link is a
+//! rather than to whatever happens to pass near it, and the links form a forest; groups
+//! that rule leaves apart though they touch (a piece whose neighbours are all smaller) are
+//! joined along their nearest gaps. A link is a
 //! rigidity term over the vertices at the contact, each predicted by the patch it belongs
 //! to and by the patch of its nearest vertex across the gap: the two pieces may turn about
 //! the contact (a joint) but not come apart.
@@ -34,9 +36,19 @@ struct Gap {
     b: usize,
 }
 
+/// The representative of `a`'s group in a union-find forest (halving the path).
+fn root(group: &mut [usize], mut a: usize) -> usize {
+    while group[a] != a {
+        group[a] = group[group[a]];
+        a = group[a];
+    }
+    a
+}
+
 /// The contact links of a reference cut into patches. `component` is each vertex's piece,
 /// `vertex_patch` each vertex's patch. Pieces whose gap is at most `largest_gap` may be
-/// linked (each to the nearest larger piece); a vertex is at the contact when
+/// linked (each to the nearest larger piece, then, with `join_groups`, the groups left
+/// apart along their shortest gaps); a vertex is at the contact when
 /// it lies within the gap plus `contact_width` of the other piece, and weighs `weight` in
 /// the rigidity term.
 pub fn contact_links(
@@ -46,6 +58,7 @@ pub fn contact_links(
     largest_gap: f64,
     contact_width: f64,
     weight: f64,
+    join_groups: bool,
 ) -> Vec<ContactLink> {
     let pieces = component.iter().map(|&c| c as usize + 1).max().unwrap_or(0);
     if pieces < 2 {
@@ -106,7 +119,7 @@ pub fn contact_links(
     // than chained to their peers, and the links form a forest.
     let larger = |a: usize, b: usize| (members[a].len(), a) > (members[b].len(), b);
     let mut mount: Vec<Option<Gap>> = vec![None; pieces];
-    for gap in gaps {
+    for gap in &gaps {
         for (child, parent) in [(gap.a, gap.b), (gap.b, gap.a)] {
             if larger(parent, child) && mount[child].is_none_or(|m| gap.distance < m.distance) {
                 mount[child] = Some(Gap {
@@ -117,9 +130,39 @@ pub fn contact_links(
             }
         }
     }
+    // Pieces whose neighbours are all smaller hang from none (the walker's two feet, one
+    // piece, touch only its two shins): the groups the mounts leave apart are joined along
+    // their nearest gaps, shortest first (Kruskal's rule), the smaller piece hanging from
+    // the larger.
+    let mut group: Vec<usize> = (0..pieces).collect();
+    let mut chosen: Vec<Gap> = mount.into_iter().flatten().collect();
+    for gap in &chosen {
+        let (ra, rb) = (root(&mut group, gap.a), root(&mut group, gap.b));
+        group[ra] = rb;
+    }
+    if join_groups {
+        let mut by_distance = gaps.clone();
+        by_distance.sort_by(|x, y| x.distance.total_cmp(&y.distance));
+        for gap in by_distance {
+            let (ra, rb) = (root(&mut group, gap.a), root(&mut group, gap.b));
+            if ra != rb {
+                group[ra] = rb;
+                let (child, parent) = if larger(gap.b, gap.a) {
+                    (gap.a, gap.b)
+                } else {
+                    (gap.b, gap.a)
+                };
+                chosen.push(Gap {
+                    distance: gap.distance,
+                    a: child,
+                    b: parent,
+                });
+            }
+        }
+    }
     let mut by_patches: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
     let mut weight_of: HashMap<(u32, u32), f64> = HashMap::new();
-    for gap in mount.into_iter().flatten() {
+    for gap in chosen {
         let reach = gap.distance + contact_width;
         // A piece with many patches carries itself on its data; a small one is carried.
         let patches = {
@@ -184,6 +227,31 @@ mod tests {
     }
 
     #[test]
+    fn a_piece_whose_neighbours_are_all_smaller_is_joined_to_them() {
+        // Two large blocks with a small one between them, touching both (the walker's
+        // feet, one piece, touch only its two shins): the small block hangs from one large
+        // block, and the other hangs from nothing unless the groups are joined.
+        let mut rest = block(5, [0.0; 3]);
+        rest.extend(block(3, [1.1, 0.0, 0.0]));
+        rest.extend(block(5, [2.2, 0.0, 0.0]));
+        let component: Vec<u32> = (0..rest.len())
+            .map(|v| match v {
+                v if v < 125 => 0,
+                v if v < 152 => 1,
+                _ => 2,
+            })
+            .collect();
+        let pairs = |join| {
+            contact_links(&rest, &component, &component, 0.5, 0.05, 1.0, join)
+                .iter()
+                .map(|l| (l.k, l.l))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(pairs(false).len(), 1);
+        assert_eq!(pairs(true), vec![(0, 1), (1, 2)]);
+    }
+
+    #[test]
     fn each_piece_hangs_from_its_nearest_larger_neighbour() {
         // Three blocks in a row, gaps 0.1 and 0.3, and a fourth far away.
         let mut rest = block(5, [0.0; 3]);
@@ -193,7 +261,7 @@ mod tests {
         let count = rest.len() / 4;
         let component: Vec<u32> = (0..rest.len()).map(|v| (v / count) as u32).collect();
         // One patch per piece.
-        let links = contact_links(&rest, &component, &component, 0.5, 0.05, 1.0);
+        let links = contact_links(&rest, &component, &component, 0.5, 0.05, 1.0, true);
         let pairs: Vec<(u32, u32)> = links.iter().map(|l| (l.k, l.l)).collect();
         assert_eq!(pairs, vec![(0, 1), (1, 2)]);
         // The contact is the facing sides: one face of 25 vertices each.
@@ -205,7 +273,7 @@ mod tests {
                 .all(|&v| (0.95..=1.15).contains(&rest[v as usize].x))
         );
         // The far piece and a gap wider than the largest stay unlinked.
-        let links = contact_links(&rest, &component, &component, 0.2, 0.05, 1.0);
+        let links = contact_links(&rest, &component, &component, 0.2, 0.05, 1.0, true);
         assert_eq!(links.len(), 1);
         // One piece: nothing to link.
         assert!(
@@ -215,7 +283,8 @@ mod tests {
                 &component[..count],
                 1.0,
                 0.1,
-                1.0
+                1.0,
+                true
             )
             .is_empty()
         );

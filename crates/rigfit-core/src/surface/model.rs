@@ -33,6 +33,9 @@ pub struct PatchOptions {
     /// Rigidity weight of a contact vertex, against `alpha_k(v) + alpha_l(v)` (at most 1) of
     /// a vertex in a piece's rigidity term.
     pub contact_stiffness: f64,
+    /// Groups of pieces that the "hang from the nearest larger piece" rule leaves apart,
+    /// though they touch, are joined along their nearest gaps ([`contact_links`]).
+    pub join_groups: bool,
 }
 
 impl Default for PatchOptions {
@@ -44,6 +47,9 @@ impl Default for PatchOptions {
             part_gap: 1.0,
             contact_width: 0.25,
             contact_stiffness: 1.0,
+            // The walker's feet and the rodent's and dog's limbs hang from nothing without it
+            // (BENCHMARKS.md).
+            join_groups: true,
         }
     }
 }
@@ -203,6 +209,7 @@ impl PatchModel {
                 options.part_gap * radius,
                 options.contact_width * radius,
                 options.contact_stiffness,
+                options.join_groups,
             )
         } else {
             Vec::new()
