@@ -19,7 +19,8 @@ pub struct VertexGraph {
 }
 
 impl VertexGraph {
-    /// Builds the graph; vertices closer than `weld_tolerance` are linked.
+    /// Builds the graph; vertices closer than `weld_tolerance` are linked when each is on an
+    /// open edge or in no triangle.
     pub fn new(vertices: &[Point3], triangles: &[[u32; 3]], weld_tolerance: f64) -> Self {
         let mut edges: Vec<(u32, u32)> = Vec::with_capacity(triangles.len() * 6);
         for t in triangles {
@@ -30,10 +31,34 @@ impl VertexGraph {
                 }
             }
         }
-        // Coincident vertices: same cell of a grid of `weld_tolerance`.
+        // Coincident vertices: same cell of a grid of `weld_tolerance`. Only vertices on an
+        // open edge (a seam splits a surface into pieces with open borders) or in no
+        // triangle are welded: two closed pieces that touch at a vertex (a robot's two
+        // capsules side by side) stay two pieces.
         if weld_tolerance > 0.0 {
+            let mut uses: HashMap<(u32, u32), u32> = HashMap::new();
+            for &(a, b) in &edges {
+                if a < b {
+                    *uses.entry((a, b)).or_insert(0) += 1;
+                }
+            }
+            let mut weldable = vec![true; vertices.len()];
+            for t in triangles {
+                for &v in t {
+                    weldable[v as usize] = false;
+                }
+            }
+            for (&(a, b), &n) in &uses {
+                if n == 1 {
+                    weldable[a as usize] = true;
+                    weldable[b as usize] = true;
+                }
+            }
             let mut cells: HashMap<[i64; 3], u32> = HashMap::new();
             for (i, p) in vertices.iter().enumerate() {
+                if !weldable[i] {
+                    continue;
+                }
                 let key = [0, 1, 2].map(|a| (p[a] / weld_tolerance).round() as i64);
                 match cells.get(&key) {
                     Some(&first) => {
@@ -263,5 +288,28 @@ mod tests {
         ];
         let graph = VertexGraph::new(&v, &[[0, 1, 2], [3, 5, 4]], 1e-9);
         assert!(connected_components(&graph).iter().all(|&c| c == 0));
+        // Two closed tetrahedra touching at one point (two capsules of a robot side by
+        // side) stay two pieces: only open borders are welded.
+        let tetra = |o: [f64; 3], s: f64| {
+            [
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+            ]
+            .map(|c| Point3::new(o[0] + s * c[0], o[1] + s * c[1], o[2] + s * c[2]))
+        };
+        let mut v = tetra([0.0; 3], 1.0).to_vec();
+        v.extend(tetra([1.0, 0.0, 0.0], 1.0));
+        let faces = |o: u32| [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]].map(|f| f.map(|i| i + o));
+        let mut t = faces(0).to_vec();
+        t.extend(faces(4));
+        let graph = VertexGraph::new(&v, &t, 1e-9);
+        let comp = connected_components(&graph);
+        assert_eq!(comp[0], comp[1]);
+        assert_ne!(
+            comp[1], comp[4],
+            "vertex 1 and vertex 4 coincide but are not welded"
+        );
     }
 }
