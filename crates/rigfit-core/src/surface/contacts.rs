@@ -130,10 +130,10 @@ pub fn contact_links(
             }
         }
     }
-    // Pieces whose neighbours are all smaller hang from none (the walker's two feet, one
-    // piece, touch only its two shins): the groups the mounts leave apart are joined along
-    // their nearest gaps, shortest first (Kruskal's rule), the smaller piece hanging from
-    // the larger.
+    // A piece whose neighbours are all smaller hangs from none (a foot welded into one
+    // piece with its twin, touching only two shins), and the groups the mounts leave apart
+    // are joined along their nearest gaps, shortest first (Kruskal's rule), the smaller
+    // piece hanging from the larger.
     let mut group: Vec<usize> = (0..pieces).collect();
     let mut chosen: Vec<Gap> = mount.into_iter().flatten().collect();
     for gap in &chosen {

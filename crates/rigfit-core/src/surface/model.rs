@@ -47,8 +47,8 @@ impl Default for PatchOptions {
             part_gap: 1.0,
             contact_width: 0.25,
             contact_stiffness: 1.0,
-            // The walker's feet and the rodent's and dog's limbs hang from nothing without it
-            // (BENCHMARKS.md).
+            // Without it, the rodent's and the dog's limbs are groups of pieces linked among
+            // themselves and to nothing else (BENCHMARKS.md).
             join_groups: true,
         }
     }
