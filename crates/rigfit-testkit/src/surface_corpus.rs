@@ -112,7 +112,8 @@ pub fn parts_case(
 }
 
 /// The connected piece of each vertex of a mesh, vertices closer than `weld_tolerance`
-/// joined (0: as the file has them).
+/// joined where they lie on open edges (0: as the file has them; see
+/// [`VertexGraph::new`]).
 pub fn piece_labels(mesh: &TriMesh, weld_tolerance: f64) -> Vec<u32> {
     let graph = VertexGraph::new(&mesh.vertices, &mesh.triangles, weld_tolerance);
     connected_components(&graph)

@@ -134,16 +134,15 @@ pub fn contact_links(
     // piece with its twin, touching only two shins), and the groups the mounts leave apart
     // are joined along their nearest gaps, shortest first (Kruskal's rule), the smaller
     // piece hanging from the larger.
-    let mut group: Vec<usize> = (0..pieces).collect();
     let mut chosen: Vec<Gap> = mount.into_iter().flatten().collect();
-    for gap in &chosen {
-        let (ra, rb) = (root(&mut group, gap.a), root(&mut group, gap.b));
-        group[ra] = rb;
-    }
     if join_groups {
-        let mut by_distance = gaps.clone();
-        by_distance.sort_by(|x, y| x.distance.total_cmp(&y.distance));
-        for gap in by_distance {
+        let mut group: Vec<usize> = (0..pieces).collect();
+        for gap in &chosen {
+            let (ra, rb) = (root(&mut group, gap.a), root(&mut group, gap.b));
+            group[ra] = rb;
+        }
+        gaps.sort_by(|x, y| x.distance.total_cmp(&y.distance));
+        for gap in gaps {
             let (ra, rb) = (root(&mut group, gap.a), root(&mut group, gap.b));
             if ra != rb {
                 group[ra] = rb;
