@@ -59,7 +59,14 @@ fn main() {
         ("+ over-relaxed M-steps (1.8)", relaxed),
         ("+ motion prediction (0.5)", predicted),
         ("+ view-aware, coarse-to-fine matching", visible),
-        ("rigfit (+ point-to-plane pulls)", rigfit),
+        (
+            "+ point-to-plane pulls",
+            TrackOptions {
+                tangential: 0.0,
+                ..rigfit.clone()
+            },
+        ),
+        ("rigfit (+ 0.3 of each pull along the surface)", rigfit),
     ];
     // `DEFAULTS_ONLY=1`: rigfit's defaults alone (for comparing joint models, JOINT_MODEL).
     let methods = if std::env::var("DEFAULTS_ONLY").is_ok() {

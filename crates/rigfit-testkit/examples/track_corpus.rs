@@ -9,13 +9,17 @@
 //! (`SEEDS=3` motions per rig, `RIGS=id,id` to choose rigs or suites (`RIGS=all`: the
 //! suites and every corpus rig but the marker rigs), `POINTS=2000` points per frame,
 //! `VERBOSE=1` prints each take's per-frame errors, root turn errors and worst joints to
-//! stderr, `VERBOSE=2` also the true motion's steps and every joint's mean error). The corpus is
+//! stderr, `VERBOSE=2` also the true motion's steps and every joint's mean error,
+//! `FROM_TRUTH=1` tracks from the first frame's true pose instead (the tracker's own error),
+//! `TANGENTIAL=x`, `PRIOR=x`, `PREDICTION=x`, `FINAL_ITERATIONS=n` and `POINT_TO_PLANE=0`
+//! set the tracker's options of those names). The corpus is
 //! `RIGFIT_CORPUS` over `data/corpus.json`; the suites' assets are `RIGFIT_DATA`.
 
+use rigfit_core::track::TrackOptions;
 use rigfit_testkit::track_cases::SequenceOptions;
 use rigfit_testkit::track_corpus::{
-    FRAME_BOUND, FROM, MEAN_BOUND, Motion, MovedSequence, SUITES, TakeOutcome, corpus_sequence,
-    suite_sequence, track_sequence,
+    FRAME_BOUND, FROM, MEAN_BOUND, Motion, MovedSequence, SUITES, TakeOutcome, TakeSettings,
+    corpus_sequence, suite_sequence, track_sequence,
 };
 use rigfit_testkit::{Corpus, Half, RigKind};
 
@@ -39,6 +43,35 @@ fn env_usize(name: &str, default: usize) -> usize {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(default)
+}
+
+fn env_f64(name: &str) -> Option<f64> {
+    std::env::var(name).ok().and_then(|v| v.parse().ok())
+}
+
+/// The take's settings: the defaults, changed by the environment (see the module's
+/// documentation).
+fn settings() -> TakeSettings {
+    let mut track = TrackOptions::default();
+    if let Some(v) = env_f64("TANGENTIAL") {
+        track.tangential = v;
+    }
+    if let Some(v) = env_f64("PRIOR") {
+        track.prior_weight = v;
+    }
+    if let Some(v) = env_f64("PREDICTION") {
+        track.prediction = v;
+    }
+    if let Some(v) = env_f64("FINAL_ITERATIONS") {
+        track.final_em_iterations = v as usize;
+    }
+    if let Some(v) = env_f64("POINT_TO_PLANE") {
+        track.point_to_plane = v != 0.0;
+    }
+    TakeSettings {
+        track,
+        from_truth: std::env::var("FROM_TRUTH").is_ok(),
+    }
 }
 
 fn half_name(half: Option<Half>) -> &'static str {
@@ -99,6 +132,7 @@ fn row(s: &MovedSequence, o: &TakeOutcome) -> String {
 
 fn main() {
     let seeds = env_usize("SEEDS", 3) as u64;
+    let settings = settings();
     let points = env_usize("POINTS", 2000);
     let verbose = std::env::var("VERBOSE").is_ok();
     let all_joints = std::env::var("VERBOSE").is_ok_and(|v| v == "2");
@@ -235,7 +269,7 @@ fn main() {
         }
         for seed in 0..seeds {
             let sequence = suite_sequence(name, seed, &options, corpus.as_ref());
-            record(&sequence, track_sequence(&sequence));
+            record(&sequence, track_sequence(&sequence, &settings));
         }
     }
     let mut unbuilt: Vec<(String, String)> = Vec::new();
@@ -263,7 +297,7 @@ fn main() {
                             sequence.model.surface_samples.len()
                         );
                     }
-                    record(&sequence, track_sequence(&sequence));
+                    record(&sequence, track_sequence(&sequence, &settings));
                 }
                 Err(e) => {
                     unbuilt.push((id.clone(), e));

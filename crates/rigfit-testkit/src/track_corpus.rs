@@ -27,7 +27,9 @@ use std::time::Instant;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rigfit_core::track::parts::PartModel;
-use rigfit_core::track::{ArticulatedModel, FrameStart, Take, TakeOptions, TrackOptions, Tracker};
+use rigfit_core::track::{
+    ArticulatedModel, FrameStart, Take, TakeFrame, TakeOptions, TrackOptions, Tracker,
+};
 use rigfit_core::{Pose, Quat, Rig, Vector3};
 
 use crate::corpus::{Corpus, CorpusRig};
@@ -503,14 +505,35 @@ pub fn synthetic_motion_through(
         .collect()
 }
 
-/// Tracks a sequence with [`Take`] (default options) from the model's stored pose.
-pub fn track_sequence(sequence: &MovedSequence) -> Result<TakeOutcome, String> {
+/// How [`track_sequence`] tracks: the tracker's options, and whether it starts from the
+/// first frame's true pose (to tell the tracker's own error from the first frame's search).
+#[derive(Clone, Debug, Default)]
+pub struct TakeSettings {
+    pub track: TrackOptions,
+    pub from_truth: bool,
+}
+
+/// Tracks a sequence with [`Take`] from the model's stored pose (or, `from_truth`, with
+/// [`Tracker`] from the first frame's true pose).
+pub fn track_sequence(
+    sequence: &MovedSequence,
+    settings: &TakeSettings,
+) -> Result<TakeOutcome, String> {
     let mut take = Take::new(
         sequence.model.clone(),
-        TrackOptions::default(),
+        settings.track.clone(),
         TakeOptions::default(),
     )
     .map_err(|e| format!("no take: {e}"))?;
+    let mut from_truth = match (settings.from_truth, sequence.frames.first()) {
+        (true, Some(first)) => {
+            let mut tracker = Tracker::new(sequence.model.clone(), settings.track.clone())
+                .map_err(|e| format!("no tracker: {e}"))?;
+            tracker.set_pose(&first.truth);
+            Some(tracker)
+        }
+        _ => None,
+    };
     let mut out = TakeOutcome {
         start: FrameStart::Tracked,
         errors: Vec::new(),
@@ -534,9 +557,14 @@ pub fn track_sequence(sequence: &MovedSequence) -> Result<TakeOutcome, String> {
     let root = rig.skeleton.skin_root().unwrap_or(0);
     for (k, frame) in sequence.frames.iter().enumerate() {
         let t0 = Instant::now();
-        let fit = take
-            .track(&frame.points)
-            .map_err(|e| format!("frame {k}: {e}"))?;
+        let fit = match from_truth.as_mut() {
+            Some(tracker) => tracker.track(&frame.points).map(|fit| TakeFrame {
+                fit,
+                start: FrameStart::Tracked,
+            }),
+            None => take.track(&frame.points),
+        }
+        .map_err(|e| format!("frame {k}: {e}"))?;
         out.seconds.push(t0.elapsed().as_secs_f64());
         if k == 0 {
             out.start = fit.start;

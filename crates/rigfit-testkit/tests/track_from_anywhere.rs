@@ -6,7 +6,7 @@
 
 use rigfit_testkit::Corpus;
 use rigfit_testkit::track_cases::SequenceOptions;
-use rigfit_testkit::track_corpus::{corpus_sequence, suite_sequence, track_sequence};
+use rigfit_testkit::track_corpus::{TakeSettings, corpus_sequence, suite_sequence, track_sequence};
 
 fn assert_within_bounds(label: &str, outcome: &rigfit_testkit::track_corpus::TakeOutcome) {
     assert!(
@@ -28,7 +28,7 @@ fn a_skinned_character_is_found_and_tracked_from_its_bind_pose() {
         &SequenceOptions::default(),
         corpus.as_ref(),
     );
-    let outcome = track_sequence(&sequence).expect("tracks");
+    let outcome = track_sequence(&sequence, &TakeSettings::default()).expect("tracks");
     assert_within_bounds("BCN_Epileptic", &outcome);
 }
 
@@ -42,6 +42,6 @@ fn a_held_out_mocap_skeleton_is_found_and_tracked_from_its_rest_pose() {
         &SequenceOptions::default(),
     )
     .expect("sequence");
-    let outcome = track_sequence(&sequence).expect("tracks");
+    let outcome = track_sequence(&sequence, &TakeSettings::default()).expect("tracks");
     assert_within_bounds("assimp-boxing_toes", &outcome);
 }

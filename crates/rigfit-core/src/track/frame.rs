@@ -306,11 +306,14 @@ impl EmModel for FrameEm<'_, '_> {
                 let point = tracker.texture[r.index];
                 let mut target = tracker.em.target[k];
                 if tracker.options.point_to_plane && tracker.model.surface_normals.is_some() {
-                    // Only the normal part of the pull: the point-to-plane gradient, free of
-                    // the tangential bias of blurred centroids.
+                    // The normal part of the pull (the point-to-plane gradient, free of the
+                    // tangential bias of blurred centroids) and a share of the rest, which
+                    // keeps a limb from sliding along or turning about itself.
                     let x = world[k];
                     let n = point.world_normal(fk);
-                    target = x + n * n.dot(&(target - x));
+                    let pull = target - x;
+                    let normal = n * n.dot(&pull);
+                    target = x + normal + (pull - normal) * tracker.options.tangential;
                 }
                 Pull {
                     point,

@@ -54,6 +54,10 @@ pub struct TrackOptions {
     /// Pull texture points along their normals only (point-to-plane) in the M-step, when
     /// the model's normals come from a mesh (the fused ellipsoids' gradient is too crude).
     pub point_to_plane: bool,
+    /// With `point_to_plane`, the share of each pull kept along the surface (0: the normal
+    /// part alone). A little of it holds a limb from sliding or turning about its own axis,
+    /// where the normal pulls alone leave it free.
+    pub tangential: f64,
 }
 
 impl TrackOptions {
@@ -97,6 +101,9 @@ impl Default for TrackOptions {
             model_points: 0,
             visible_only: true,
             point_to_plane: true,
+            // Measured on the tune half of the tracking corpus: 0.3 against 0, 0.1, 0.2, 0.4
+            // and 0.5 (BENCHMARKS.md, issue 23).
+            tangential: 0.3,
             over_relaxation: 1.8,
         }
     }
