@@ -11,7 +11,8 @@
 //! `VERBOSE=1` prints each take's per-frame errors, root turn errors and worst joints to
 //! stderr, `VERBOSE=2` also the true motion's steps and every joint's mean error,
 //! `FROM_TRUTH=1` tracks from the first frame's true pose instead (the tracker's own error),
-//! `TANGENTIAL=x`, `PRIOR=x`, `PREDICTION=x`, `FINAL_ITERATIONS=n` and `POINT_TO_PLANE=0`
+//! `TANGENTIAL=x`, `PRIOR=x`, `PREDICTION=x`, `FINAL_ITERATIONS=n`, `NOISE=x`, `EXPONENT=x`,
+//! `RELAXATION=x` and `POINT_TO_PLANE=0`
 //! set the tracker's options of those names). The corpus is
 //! `RIGFIT_CORPUS` over `data/corpus.json`; the suites' assets are `RIGFIT_DATA`.
 
@@ -64,6 +65,15 @@ fn settings() -> TakeSettings {
     }
     if let Some(v) = env_f64("FINAL_ITERATIONS") {
         track.final_em_iterations = v as usize;
+    }
+    if let Some(v) = env_f64("NOISE") {
+        track.noise = v;
+    }
+    if let Some(v) = env_f64("EXPONENT") {
+        track.bending_exponent = v;
+    }
+    if let Some(v) = env_f64("RELAXATION") {
+        track.over_relaxation = v;
     }
     if let Some(v) = env_f64("POINT_TO_PLANE") {
         track.point_to_plane = v != 0.0;
