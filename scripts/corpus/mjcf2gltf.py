@@ -7,7 +7,8 @@ Every body of the subtree under ROOT_BODY becomes a node, with the body's frame 
 orientation: quat, axisangle, euler, xyaxes or zaxis, as MuJoCo's compiler reads them) as
 its translation and rotation; the root node carries the root body's full world placement.
 A leaf body whose geoms reach away from its origin gets one child node NAME_end at the geom
-point farthest from it (like a BVH End Site), so the last bone of a chain has a length.
+point farthest from it (like a BVH End Site), so the last bone of a chain has a length; mesh
+geoms count only in a body with no other geom (a mesh geom's pos is its file's frame).
 The skin lists every node. Axes and units are kept as found: MuJoCo is Z-up, in metres.
 The pose is MuJoCo's qpos0 (the model as written); MJCF holds no animation.
 Beside OUT.glb, OUT.joints.json (rigfit's joints file, `rigfit pose --joints`) says what
@@ -265,9 +266,13 @@ def skeleton(model, root_name, tool="mjcf2gltf"):
         for k in kids:
             visit(k, index, local(k))
         if not kids:
+            # A mesh geom's pos places the mesh file's frame, often far from the geometry
+            # (the dog's toe meshes sit 0.55 m from their pos): the body's other geoms say
+            # where it reaches, and a mesh's pos only when it has nothing else.
+            geoms = [defaults.attrs(geom, childclass_of(b)) for geom in b.findall("geom")]
+            placed = [a for a in geoms if a.get("type", "sphere") != "mesh"] or geoms
             best, far = None, 1e-4
-            for geom in b.findall("geom"):
-                attrs = defaults.attrs(geom, childclass_of(b))
+            for attrs in placed:
                 for p in geom_points(attrs, compiler):
                     d = math.sqrt(sum(c * c for c in p))
                     if d > far:
