@@ -12,11 +12,12 @@
 //! stderr, `VERBOSE=2` also the true motion's steps and every joint's mean error,
 //! `FROM_TRUTH=1` tracks from the first frame's true pose instead (the tracker's own error),
 //! `TANGENTIAL=x`, `PRIOR=x`, `PREDICTION=x`, `FINAL_ITERATIONS=n`, `NOISE=x`, `EXPONENT=x`,
-//! `RELAXATION=x` and `POINT_TO_PLANE=0`
+//! `RELAXATION=x` and `POINT_TO_PLANE=0`; `SWINGS=1` turns on the search's limb swings, and
+//! `FULL_PASSES=n`, `REFINE_SIGMA=x`, `REFINE_STEPS=n`, `FULL_PRIOR=x` set its options of those names
 //! set the tracker's options of those names). The corpus is
 //! `RIGFIT_CORPUS` over `data/corpus.json`; the suites' assets are `RIGFIT_DATA`.
 
-use rigfit_core::track::TrackOptions;
+use rigfit_core::track::{LimbSwingOptions, TakeOptions, TrackOptions};
 use rigfit_testkit::track_cases::SequenceOptions;
 use rigfit_testkit::track_corpus::{
     FRAME_BOUND, FROM, MEAN_BOUND, Motion, MovedSequence, SUITES, TakeOutcome, TakeSettings,
@@ -78,8 +79,25 @@ fn settings() -> TakeSettings {
     if let Some(v) = env_f64("POINT_TO_PLANE") {
         track.point_to_plane = v != 0.0;
     }
+    let mut take = TakeOptions::default();
+    if std::env::var("SWINGS").is_ok() {
+        take.search.limb_swings = Some(LimbSwingOptions::default());
+    }
+    if let Some(v) = env_f64("FULL_PASSES") {
+        take.search.full_passes = v as usize;
+    }
+    if let Some(v) = env_f64("REFINE_SIGMA") {
+        take.search.refine_sigma = v;
+    }
+    if let Some(v) = env_f64("REFINE_STEPS") {
+        take.search.refine_steps = v as usize;
+    }
+    if let Some(v) = env_f64("FULL_PRIOR") {
+        take.search.full_prior_weight = v;
+    }
     TakeSettings {
         track,
+        take,
         from_truth: std::env::var("FROM_TRUTH").is_ok(),
     }
 }

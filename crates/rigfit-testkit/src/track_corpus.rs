@@ -510,6 +510,7 @@ pub fn synthetic_motion_through(
 #[derive(Clone, Debug, Default)]
 pub struct TakeSettings {
     pub track: TrackOptions,
+    pub take: TakeOptions,
     pub from_truth: bool,
 }
 
@@ -522,7 +523,7 @@ pub fn track_sequence(
     let mut take = Take::new(
         sequence.model.clone(),
         settings.track.clone(),
-        TakeOptions::default(),
+        settings.take.clone(),
     )
     .map_err(|e| format!("no take: {e}"))?;
     let mut from_truth = match (settings.from_truth, sequence.frames.first()) {
