@@ -567,15 +567,6 @@ pub fn track_sequence(
         }
         .map_err(|e| format!("frame {k}: {e}"))?;
         out.seconds.push(t0.elapsed().as_secs_f64());
-        if std::env::var("SHARES").is_ok() {
-            let mut probe = Tracker::new(sequence.model.clone(), settings.track.clone()).unwrap();
-            let sigma = 0.01 * sequence.model.height;
-            probe.set_pose(&frame.truth);
-            let t = probe.explained_share(&frame.points, sigma);
-            probe.set_pose(&fit.fit.pose);
-            let f = probe.explained_share(&frame.points, sigma);
-            eprintln!("frame {k}: share truth {t:.4} fit {f:.4}");
-        }
         if k == 0 {
             out.start = fit.start;
         }
