@@ -14,7 +14,8 @@ The pose is MuJoCo's qpos0 (the model as written); MJCF holds no animation.
 Beside OUT.glb, OUT.joints.json (rigfit's joints file, `rigfit pose --joints`) says what
 each body's MuJoCo joints let it do: none (welded) is fixed, one hinge a hinge about its
 axis with its range, several hinges or a ball a ball bounded per axis, a slide joint
-translates (free, with the rotation its hinges allow). Ranges become radians.
+translates (free, with the rotation its hinges allow, and its translation within the box
+its slides' ranges sweep from the rest position). Ranges become radians.
 Standard library only; deterministic.
 """
 
@@ -156,7 +157,7 @@ def geom_points(attrs, compiler):
 def joint_spec(body, defaults, childclass, compiler):
     """What a body's MuJoCo joints let it do, as a joints-file entry (None for a free joint:
     the root's placement is not the rig's to limit)."""
-    hinges, slides, balls = [], 0, []
+    hinges, slides, balls = [], [], []
     for j in body.findall("joint"):
         a = defaults.attrs(j, childclass)
         kind = a.get("type", "hinge")
@@ -169,7 +170,7 @@ def joint_spec(body, defaults, childclass, compiler):
             lim = None if rng is None else (compiler.angle(rng[0]), compiler.angle(rng[1]))
             hinges.append((axis, lim))
         elif kind == "slide":
-            slides += 1
+            slides.append((unit(floats(a.get("axis", "0 0 1"))), rng))
         elif kind == "ball":
             balls.append(None if rng is None else compiler.angle(rng[1]))
         elif kind == "free":
@@ -205,6 +206,18 @@ def joint_spec(body, defaults, childclass, compiler):
     spec = {"dof": "free" if slides else "ball"}
     spec["min"] = [round(max(v, -math.pi), 9) for v in lo]
     spec["max"] = [round(min(v, math.pi), 9) for v in hi]
+    # Slides bound the translation (from the body's rest position, in the model's units) to
+    # the box their ranges sweep; an unlimited slide leaves it unbounded.
+    # The rest position (every slide at 0, as the file places the body) is always inside.
+    if slides and all(rng is not None for _, rng in slides):
+        tlo, thi = [0.0] * 3, [0.0] * 3
+        for axis, rng in slides:
+            for c in range(3):
+                ends = (axis[c] * min(rng[0], 0.0), axis[c] * max(rng[1], 0.0))
+                tlo[c] += min(ends)
+                thi[c] += max(ends)
+        spec["translation"] = {"min": [round(v, 9) for v in tlo],
+                               "max": [round(v, 9) for v in thi]}
     return spec
 
 

@@ -11,11 +11,14 @@ use crate::kinematics::DofLayout;
 use crate::math::{Matrix3, Vector3};
 use crate::skeleton::{JointDof, JointKind, JointLimits, Pose, Skeleton};
 
-/// What one joint may do: its degrees of freedom and the limits of its rotation.
+/// What one joint may do: its degrees of freedom and the limits of its rotation, and for a
+/// joint that translates, the box its translation keeps to (from its rest translation, the
+/// rig's units).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct JointSpec {
     pub dof: JointDof,
     pub limits: Option<JointLimits>,
+    pub translation: Option<JointLimits>,
 }
 
 /// How a joint model is learnt from clips.
@@ -127,6 +130,7 @@ fn spec_from_keys(keys: &[Vector3], options: &ClipModelOptions) -> Option<JointS
                 min: Vector3::new(lo.max(-std::f64::consts::PI), 0.0, 0.0),
                 max: Vector3::new(hi.min(std::f64::consts::PI), 0.0, 0.0),
             }),
+            translation: None,
         });
     }
     // The rest pose is one the rig can take: the range always holds it.
@@ -145,6 +149,7 @@ fn spec_from_keys(keys: &[Vector3], options: &ClipModelOptions) -> Option<JointS
     Some(JointSpec {
         dof: JointDof::Ball,
         limits: Some(JointLimits { min, max }),
+        translation: None,
     })
 }
 
@@ -166,6 +171,7 @@ impl JointSpec {
                         min: a.inf(&b),
                         max: a.sup(&b),
                     }),
+                    translation: None,
                 }
             }
             _ => *self,
@@ -205,10 +211,50 @@ pub fn apply_joint_model(skeleton: &mut Skeleton, model: &[Option<JointSpec>]) -
     for (j, spec) in model.iter().enumerate().take(skeleton.len()) {
         if let Some(spec) = spec {
             skeleton.set_dof(j, spec.dof, spec.limits);
+            let rest = skeleton.joint(j).rest.translation;
+            let translation = spec
+                .translation
+                .filter(|_| spec.dof == JointDof::Free)
+                .map(|t| JointLimits {
+                    min: rest + t.min,
+                    max: rest + t.max,
+                });
+            skeleton.set_translation_limits(j, translation);
             changed += 1;
         }
     }
     changed
+}
+
+/// The soft translation-limit residuals of `pose`: for each joint `layout` moves that
+/// translates and has [`crate::skeleton::Joint::translation_limits`], its local
+/// translation's excess over them in heights (`scale`: one over the height), per
+/// translation parameter, handed to `add(residual, weight, column, derivative)`.
+pub fn translation_limit_residuals(
+    layout: &DofLayout,
+    skeleton: &Skeleton,
+    pose: &Pose,
+    weight: f64,
+    scale: f64,
+    add: &mut dyn FnMut(f64, f64, usize, f64),
+) {
+    if weight <= 0.0 {
+        return;
+    }
+    for j in 0..layout.joint_count() {
+        let (Some(o), Some(limits)) = (layout.offset(j), &skeleton.joint(j).translation_limits)
+        else {
+            continue;
+        };
+        if layout.dof(j) != JointDof::Free {
+            continue;
+        }
+        let t = pose.local[j].translation;
+        for a in 0..3 {
+            let excess = (t[a] - limits.max[a]).max(0.0) + (t[a] - limits.min[a]).min(0.0);
+            add(excess * scale, weight, o + a, scale);
+        }
+    }
 }
 
 /// How far a joint's rotation vector relative to rest (`rest^-1 * rotation`) lies outside

@@ -72,6 +72,9 @@ pub struct Joint {
     pub kind: JointKind,
     pub dof: JointDof,
     pub limits: Option<JointLimits>,
+    /// For a joint that translates: the box its local translation keeps to (the rig's
+    /// units; from a joints file's `translation`), soft in tracking's M-step.
+    pub translation_limits: Option<JointLimits>,
 }
 
 impl Joint {
@@ -84,6 +87,7 @@ impl Joint {
             kind: JointKind::Skin,
             dof: JointDof::Ball,
             limits: None,
+            translation_limits: None,
         }
     }
 }
@@ -206,6 +210,11 @@ impl Skeleton {
     pub fn set_dof(&mut self, index: usize, dof: JointDof, limits: Option<JointLimits>) {
         self.joints[index].dof = dof;
         self.joints[index].limits = limits;
+    }
+
+    /// Sets joint `index`'s translation box (see [`Joint::translation_limits`]).
+    pub fn set_translation_limits(&mut self, index: usize, limits: Option<JointLimits>) {
+        self.joints[index].translation_limits = limits;
     }
 
     pub fn len(&self) -> usize {

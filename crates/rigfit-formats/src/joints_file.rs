@@ -6,6 +6,7 @@
 //!     "LeftLeg":  { "dof": "hinge", "axis": [1, 0, 0], "min": -0.1, "max": 2.6 },
 //!     "LeftArm":  { "dof": "ball", "min": [-1.5, -1.0, -1.6], "max": [1.5, 1.2, 1.6] },
 //!     "Spine":    { "dof": "ball" },
+//!     "Lift":     { "dof": "free", "translation": { "min": [0, 0, 0], "max": [0, 0, 0.39] } },
 //!     "Jaw":      { "dof": "fixed" } } }
 //! ```
 //!
@@ -13,8 +14,10 @@
 //! `max` bound the rotation vector (axis times angle) of `rest^-1 * rotation` per axis of
 //! the joint's own frame; a hinge's bound the signed angle about its `axis` (in the joint's
 //! frame). Limits are optional (a joint without them turns freely); `dof` is one of
-//! `hinge`, `ball`, `free` (translates too) and `fixed`. Joints not listed keep what the
-//! clips show. Unknown keys are ignored.
+//! `hinge`, `ball`, `free` (translates too) and `fixed`. A free joint's optional
+//! `translation` bounds its local translation, in the rig's units, from its rest translation
+//! (a robot's slide joint: the box its range sweeps). Joints not listed keep what the clips
+//! show. Unknown keys are ignored.
 
 use std::path::Path;
 
@@ -123,7 +126,41 @@ fn parse_spec(here: &str, entry: &Map<String, Value>) -> Result<JointSpec, Parse
             ));
         }
     };
-    Ok(JointSpec { dof, limits })
+    let translation = match entry.get("translation") {
+        None | Some(Value::Null) => None,
+        Some(Value::Object(t)) if dof == JointDof::Free => {
+            let place = format!("{here}.translation");
+            let min = vector(&format!("{place}.min"), t.get("min"))?;
+            let max = vector(&format!("{place}.max"), t.get("max"))?;
+            let (Some(min), Some(max)) = (min, max) else {
+                return Err(ParseError::new(place, "give both \"min\" and \"max\""));
+            };
+            if let Some(a) = (0..3).find(|&a| min[a] > max[a]) {
+                return Err(ParseError::new(
+                    place,
+                    format!("min is above max (axis {a}: {} > {})", min[a], max[a]),
+                ));
+            }
+            Some(JointLimits { min, max })
+        }
+        Some(Value::Object(_)) => {
+            return Err(ParseError::new(
+                format!("{here}.translation"),
+                "only a \"free\" joint translates",
+            ));
+        }
+        Some(_) => {
+            return Err(ParseError::new(
+                format!("{here}.translation"),
+                "expected {\"min\": [x, y, z], \"max\": [x, y, z]}",
+            ));
+        }
+    };
+    Ok(JointSpec {
+        dof,
+        limits,
+        translation,
+    })
 }
 
 /// An optional `[x, y, z]` of finite numbers.
@@ -196,5 +233,29 @@ mod tests {
             err(r#"{"joints": {"Knee": {"dof": "ball", "min": [0,0,0]}}}"#).contains("neither")
         );
         assert!(err(r#"{"joint": {}}"#).contains("missing \"joints\""));
+        assert!(
+            err(r#"{"joints": {"Knee": {"dof": "ball", "translation": {"min": [0,0,0], "max": [0,0,1]}}}}"#)
+                .starts_with("joints.Knee.translation: only a \"free\" joint")
+        );
+        assert!(
+            err(r#"{"joints": {"Knee": {"dof": "free", "translation": {"min": [0,0,1], "max": [0,0,0]}}}}"#)
+                .contains("min is above max")
+        );
+    }
+
+    #[test]
+    fn a_free_joint_keeps_its_translation_box_from_rest() {
+        let text = br#"{"joints": {"Knee": {"dof": "free", "translation": {"min": [0, 0, 0], "max": [0, 0.5, 0]}}}}"#;
+        let mut s = skeleton();
+        let model = parse_joints(text, &s).expect("a good joints file");
+        assert_eq!(
+            model[1].expect("knee").translation.expect("a box").max,
+            Vector3::new(0.0, 0.5, 0.0)
+        );
+        rigfit_core::joint_model::apply_joint_model(&mut s, &model);
+        // The knee's rest translation is one up: the box is from there.
+        let limits = s.joint(1).translation_limits.expect("set");
+        assert_eq!(limits.min, Vector3::new(0.0, 1.0, 0.0));
+        assert_eq!(limits.max, Vector3::new(0.0, 1.5, 0.0));
     }
 }

@@ -9,7 +9,7 @@ use rigfit_core::joint_model::limit_excess;
 use rigfit_core::math::{Quat, Vector3};
 use rigfit_core::mirror::mirror_pairs;
 use rigfit_core::pose::sketch::{chain_length, limb_chains, outer_limbs};
-use rigfit_core::skeleton::{Joint, JointDof, JointKind, Pose, Skeleton};
+use rigfit_core::skeleton::{Joint, JointDof, JointKind, JointLimits, Pose, Skeleton};
 
 /// A limb's first bone counts as a short link (a clavicle, a hip joint) and the limb turns
 /// at the next joint when it is shorter than this fraction of the next bone.
@@ -272,6 +272,19 @@ fn random_bends(
         if let Some((lo, hi)) = moving {
             pose.local[j].translation =
                 Vector3::from_fn(|i, _| lo[i] + (hi[i] - lo[i]) * rng.random::<f64>());
+        } else if let Some(JointLimits { min, max }) = joint
+            .translation_limits
+            .filter(|_| joint.dof == JointDof::Free)
+        {
+            // A slide the rig declares: as far as a free joint moves, within the box its
+            // range sweeps.
+            let reach = options.translation * height;
+            let start = pose.local[j].translation;
+            pose.local[j].translation = Vector3::from_fn(|i, _| {
+                let lo = (start[i] - reach).max(min[i]);
+                let hi = (start[i] + reach).min(max[i]).max(lo);
+                lo + (hi - lo) * rng.random::<f64>()
+            });
         } else if joint.dof == JointDof::Free {
             let reach = options.translation * height;
             pose.local[j].translation += Vector3::from_fn(|_, _| rng.random_range(-reach..=reach));

@@ -4,7 +4,7 @@
 use super::Tracker;
 use super::texture::TexturePoint;
 use crate::engine::{NormalSink, SkeletonNormalEquations, SubtreeMoments};
-use crate::joint_model::limit_residuals;
+use crate::joint_model::{limit_residuals, translation_limit_residuals};
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Point3, Vector3};
 use crate::skeleton::{JointDof, Pose};
@@ -95,6 +95,18 @@ impl Tracker {
                             ne.add_scalar(r, w, col, 1.0)
                         }
                     });
+                    translation_limit_residuals(
+                        layout,
+                        skeleton,
+                        pose,
+                        limits,
+                        inv_h,
+                        &mut |r, w, col, d| {
+                            if r != 0.0 {
+                                ne.add_scalar(r, w, col, d)
+                            }
+                        },
+                    );
                     ne.cost()
                 }
                 None => {
@@ -106,6 +118,14 @@ impl Tracker {
                     limit_residuals(layout, skeleton, pose, limits, &mut |r, w, _| {
                         cost += w * r * r
                     });
+                    translation_limit_residuals(
+                        layout,
+                        skeleton,
+                        pose,
+                        limits,
+                        inv_h,
+                        &mut |r, w, _, _| cost += w * r * r,
+                    );
                     cost
                 }
             }
