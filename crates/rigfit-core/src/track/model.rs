@@ -167,3 +167,34 @@ pub fn texture_count(
         .sum();
     ((area / (0.02 * height).powi(2)).round() as usize).clamp(500, 5000)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Matrix3;
+
+    /// Two unit spheres, centres one apart along x.
+    fn two_spheres() -> PlacedParts {
+        PlacedParts {
+            center: vec![Point3::origin(), Point3::new(1.0, 0.0, 0.0)],
+            inv_shape: vec![Matrix3::identity(); 2],
+            reach: vec![1.0; 2],
+        }
+    }
+
+    #[test]
+    fn a_point_is_moved_onto_its_own_part_and_dropped_where_another_covers_it() {
+        let placed = two_spheres();
+        // Just inside the first sphere's far side (a facet point): moved onto it.
+        let kept = on_outer_surface(&placed, &Point3::new(-0.98, 0.0, 0.0)).expect("kept");
+        assert!(
+            (kept - Point3::new(-1.0, 0.0, 0.0)).norm() < 1e-12,
+            "{kept}"
+        );
+        // On the first sphere, inside the second: no scan sees it.
+        assert!(on_outer_surface(&placed, &Point3::new(0.99, 0.0, 0.0)).is_none());
+        // Where the two spheres meet, outside both interiors: kept.
+        let seam = Point3::new(0.5, 0.75f64.sqrt(), 0.0);
+        assert!(on_outer_surface(&placed, &seam).is_some());
+    }
+}
