@@ -320,37 +320,6 @@ pub fn joint_limit_residuals(
 
 #[cfg(test)]
 mod tests {
-
-    #[test]
-    fn a_translating_joint_outside_its_box_gets_residuals_in_heights() {
-        let mut skeleton = chain();
-        skeleton.set_dof(2, JointDof::Free, None);
-        skeleton.set_translation_limits(
-            2,
-            Some(JointLimits {
-                min: Vector3::new(0.0, 1.0, 0.0),
-                max: Vector3::new(0.0, 1.5, 0.0),
-            }),
-        );
-        let layout = DofLayout::new(&skeleton);
-        let mut pose = skeleton.rest_pose();
-        pose.local[2].translation = Vector3::new(0.2, 2.0, 0.0);
-        let mut got = Vec::new();
-        translation_limit_residuals(&layout, &skeleton, &pose, 1.0, 0.5, &mut |r, w, c, d| {
-            got.push((r, w, c, d))
-        });
-        let o = layout.offset(2).expect("moves");
-        // 0.2 past x's box and 0.5 past y's, halved (one over a height of 2).
-        assert_eq!(
-            got,
-            vec![
-                (0.1, 1.0, o, 0.5),
-                (0.25, 1.0, o + 1, 0.5),
-                (0.0, 1.0, o + 2, 0.5)
-            ]
-        );
-    }
-
     use super::*;
     use crate::animation::{AnimationChannel, quat_to_xyzw};
     use crate::math::{Quat, Trs};
@@ -430,5 +399,35 @@ mod tests {
         );
         let e = limit_excess(&JointDof::Ball, &limits, &Vector3::new(1.5, 0.0, -0.3));
         assert!((e - Vector3::new(0.5, 0.0, -0.2)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn a_translating_joint_outside_its_box_gets_residuals_in_heights() {
+        let mut skeleton = chain();
+        skeleton.set_dof(2, JointDof::Free, None);
+        skeleton.set_translation_limits(
+            2,
+            Some(JointLimits {
+                min: Vector3::new(0.0, 1.0, 0.0),
+                max: Vector3::new(0.0, 1.5, 0.0),
+            }),
+        );
+        let layout = DofLayout::new(&skeleton);
+        let mut pose = skeleton.rest_pose();
+        pose.local[2].translation = Vector3::new(0.2, 2.0, 0.0);
+        let mut got = Vec::new();
+        translation_limit_residuals(&layout, &skeleton, &pose, 1.0, 0.5, &mut |r, w, c, d| {
+            got.push((r, w, c, d))
+        });
+        let o = layout.offset(2).expect("moves");
+        // 0.2 past x's box and 0.5 past y's, halved (one over a height of 2).
+        assert_eq!(
+            got,
+            vec![
+                (0.1, 1.0, o, 0.5),
+                (0.25, 1.0, o + 1, 0.5),
+                (0.0, 1.0, o + 2, 0.5)
+            ]
+        );
     }
 }

@@ -16,6 +16,8 @@
 //! `PLOT=DIR` writes DIR/surface_parts_frames.png, each object's mean per frame, `_paper`
 //! with `PAPER=1`)
 
+#[path = "common/env_knobs.rs"]
+mod env_knobs;
 #[path = "common/plot_file.rs"]
 mod plot_file;
 
@@ -45,55 +47,22 @@ fn main() {
         SurfaceOptions::default()
     };
     // Options to compare against the defaults.
-    let knob = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<f64>().ok());
-    if let Some(v) = knob("SIGMA") {
-        options.initial_sigma = v;
-    }
-    if let Some(v) = knob("ANNEAL") {
-        options.anneal = v;
-    }
-    if let Some(v) = knob("ITERATIONS") {
-        options.max_iterations = v as usize;
-    }
-    if let Some(v) = knob("HOLD") {
-        options.hold_while_moving = v;
-    }
-    if let Some(v) = knob("CUTOFF") {
-        options.data.cutoff_sigmas = v;
-    }
-    if let Some(v) = knob("CANDIDATES") {
-        options.data.max_candidates = v as usize;
-    }
-    if let Some(v) = knob("MERGE") {
-        options.merge_cell = v;
-    }
-    if let Some(v) = knob("TOLERANCE") {
-        options.tolerance = v;
-    }
-    if let Some(v) = knob("STRIDE") {
-        options.coarse_stride = v as usize;
-    }
-    if let Some(v) = knob("COARSE_ITERATIONS") {
-        options.coarse_iterations = v as usize;
-    }
-    if let Some(v) = knob("COARSE_STIFFNESS") {
-        options.coarse_stiffness = v;
-    }
-    if let Some(v) = knob("FAST") {
-        options.fast_start = v;
-    }
-    if let Some(v) = knob("ANCHOR") {
-        options.anchor = v;
-    }
-    if let Some(v) = knob("CONTACT_WIDTH") {
-        options.patches.contact_width = v;
-    }
-    if let Some(v) = knob("PART_GAP") {
-        options.patches.part_gap = v;
-    }
-    if let Some(v) = knob("STIFFNESS") {
-        options.patches.contact_stiffness = v;
-    }
+    env_knobs::set("SIGMA", &mut options.initial_sigma);
+    env_knobs::set("ANNEAL", &mut options.anneal);
+    env_knobs::set_count("ITERATIONS", &mut options.max_iterations);
+    env_knobs::set("HOLD", &mut options.hold_while_moving);
+    env_knobs::set("CUTOFF", &mut options.data.cutoff_sigmas);
+    env_knobs::set_count("CANDIDATES", &mut options.data.max_candidates);
+    env_knobs::set("MERGE", &mut options.merge_cell);
+    env_knobs::set("TOLERANCE", &mut options.tolerance);
+    env_knobs::set_count("STRIDE", &mut options.coarse_stride);
+    env_knobs::set_count("COARSE_ITERATIONS", &mut options.coarse_iterations);
+    env_knobs::set("COARSE_STIFFNESS", &mut options.coarse_stiffness);
+    env_knobs::set("FAST", &mut options.fast_start);
+    env_knobs::set("ANCHOR", &mut options.anchor);
+    env_knobs::set("CONTACT_WIDTH", &mut options.patches.contact_width);
+    env_knobs::set("PART_GAP", &mut options.patches.part_gap);
+    env_knobs::set("STIFFNESS", &mut options.patches.contact_stiffness);
     if std::env::var("NO_CARRY").is_ok() {
         options.carry_unseen = false;
     }

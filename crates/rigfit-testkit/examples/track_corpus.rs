@@ -12,10 +12,13 @@
 //! stderr, `VERBOSE=2` also the true motion's steps and every joint's mean error,
 //! `FROM_TRUTH=1` tracks from the first frame's true pose instead (the tracker's own error),
 //! `TANGENTIAL=x`, `PRIOR=x`, `PREDICTION=x`, `FINAL_ITERATIONS=n`, `NOISE=x`, `EXPONENT=x`,
-//! `RELAXATION=x` and `POINT_TO_PLANE=0`; `SWINGS=1` turns on the search's limb swings, and
-//! `FULL_PASSES=n`, `REFINE_SIGMA=x`, `REFINE_STEPS=n`, `FULL_PRIOR=x` set its options of those names
-//! set the tracker's options of those names). The corpus is
+//! `RELAXATION=x` and `POINT_TO_PLANE=0` set the tracker's options of those names,
+//! `SWINGS=1` turns on the first-frame search's limb swings, and `FULL_PASSES=n`,
+//! `REFINE_SIGMA=x`, `REFINE_STEPS=n` and `FULL_PRIOR=x` set its options). The corpus is
 //! `RIGFIT_CORPUS` over `data/corpus.json`; the suites' assets are `RIGFIT_DATA`.
+
+#[path = "common/env_knobs.rs"]
+mod env_knobs;
 
 use rigfit_core::track::{LimbSwingOptions, TakeOptions, TrackOptions};
 use rigfit_testkit::track_cases::SequenceOptions;
@@ -47,54 +50,28 @@ fn env_usize(name: &str, default: usize) -> usize {
         .unwrap_or(default)
 }
 
-fn env_f64(name: &str) -> Option<f64> {
-    std::env::var(name).ok().and_then(|v| v.parse().ok())
-}
-
 /// The take's settings: the defaults, changed by the environment (see the module's
 /// documentation).
 fn settings() -> TakeSettings {
     let mut track = TrackOptions::default();
-    if let Some(v) = env_f64("TANGENTIAL") {
-        track.tangential = v;
-    }
-    if let Some(v) = env_f64("PRIOR") {
-        track.prior_weight = v;
-    }
-    if let Some(v) = env_f64("PREDICTION") {
-        track.prediction = v;
-    }
-    if let Some(v) = env_f64("FINAL_ITERATIONS") {
-        track.final_em_iterations = v as usize;
-    }
-    if let Some(v) = env_f64("NOISE") {
-        track.noise = v;
-    }
-    if let Some(v) = env_f64("EXPONENT") {
-        track.bending_exponent = v;
-    }
-    if let Some(v) = env_f64("RELAXATION") {
-        track.over_relaxation = v;
-    }
-    if let Some(v) = env_f64("POINT_TO_PLANE") {
+    env_knobs::set("TANGENTIAL", &mut track.tangential);
+    env_knobs::set("PRIOR", &mut track.prior_weight);
+    env_knobs::set("PREDICTION", &mut track.prediction);
+    env_knobs::set_count("FINAL_ITERATIONS", &mut track.final_em_iterations);
+    env_knobs::set("NOISE", &mut track.noise);
+    env_knobs::set("EXPONENT", &mut track.bending_exponent);
+    env_knobs::set("RELAXATION", &mut track.over_relaxation);
+    if let Some(v) = env_knobs::number("POINT_TO_PLANE") {
         track.point_to_plane = v != 0.0;
     }
     let mut take = TakeOptions::default();
     if std::env::var("SWINGS").is_ok() {
         take.search.limb_swings = Some(LimbSwingOptions::default());
     }
-    if let Some(v) = env_f64("FULL_PASSES") {
-        take.search.full_passes = v as usize;
-    }
-    if let Some(v) = env_f64("REFINE_SIGMA") {
-        take.search.refine_sigma = v;
-    }
-    if let Some(v) = env_f64("REFINE_STEPS") {
-        take.search.refine_steps = v as usize;
-    }
-    if let Some(v) = env_f64("FULL_PRIOR") {
-        take.search.full_prior_weight = v;
-    }
+    env_knobs::set_count("FULL_PASSES", &mut take.search.full_passes);
+    env_knobs::set("REFINE_SIGMA", &mut take.search.refine_sigma);
+    env_knobs::set_count("REFINE_STEPS", &mut take.search.refine_steps);
+    env_knobs::set("FULL_PRIOR", &mut take.search.full_prior_weight);
     TakeSettings {
         track,
         take,

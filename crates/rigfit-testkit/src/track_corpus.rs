@@ -514,26 +514,34 @@ pub struct TakeSettings {
     pub from_truth: bool,
 }
 
+/// What tracks a sequence's frames: a take (its first frame searched or stored), or a
+/// tracker put at the first frame's truth.
+enum Driver {
+    Take(Box<Take>),
+    FromTruth(Box<Tracker>),
+}
+
 /// Tracks a sequence with [`Take`] from the model's stored pose (or, `from_truth`, with
 /// [`Tracker`] from the first frame's true pose).
 pub fn track_sequence(
     sequence: &MovedSequence,
     settings: &TakeSettings,
 ) -> Result<TakeOutcome, String> {
-    let mut take = Take::new(
-        sequence.model.clone(),
-        settings.track.clone(),
-        settings.take.clone(),
-    )
-    .map_err(|e| format!("no take: {e}"))?;
-    let mut from_truth = match (settings.from_truth, sequence.frames.first()) {
+    let mut driver = match (settings.from_truth, sequence.frames.first()) {
         (true, Some(first)) => {
             let mut tracker = Tracker::new(sequence.model.clone(), settings.track.clone())
                 .map_err(|e| format!("no tracker: {e}"))?;
             tracker.set_pose(&first.truth);
-            Some(tracker)
+            Driver::FromTruth(Box::new(tracker))
         }
-        _ => None,
+        _ => Driver::Take(Box::new(
+            Take::new(
+                sequence.model.clone(),
+                settings.track.clone(),
+                settings.take.clone(),
+            )
+            .map_err(|e| format!("no take: {e}"))?,
+        )),
     };
     let mut out = TakeOutcome {
         start: FrameStart::Tracked,
@@ -558,12 +566,12 @@ pub fn track_sequence(
     let root = rig.skeleton.skin_root().unwrap_or(0);
     for (k, frame) in sequence.frames.iter().enumerate() {
         let t0 = Instant::now();
-        let fit = match from_truth.as_mut() {
-            Some(tracker) => tracker.track(&frame.points).map(|fit| TakeFrame {
+        let fit = match &mut driver {
+            Driver::Take(take) => take.track(&frame.points),
+            Driver::FromTruth(tracker) => tracker.track(&frame.points).map(|fit| TakeFrame {
                 fit,
                 start: FrameStart::Tracked,
             }),
-            None => take.track(&frame.points),
         }
         .map_err(|e| format!("frame {k}: {e}"))?;
         out.seconds.push(t0.elapsed().as_secs_f64());

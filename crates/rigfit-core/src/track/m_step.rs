@@ -7,7 +7,7 @@ use crate::engine::{NormalSink, SkeletonNormalEquations, SubtreeMoments};
 use crate::joint_model::{limit_residuals, translation_limit_residuals};
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Point3, Vector3};
-use crate::skeleton::{JointDof, Pose};
+use crate::skeleton::{JointDof, Pose, Skeleton};
 
 /// A point pulled toward a target with a weight.
 #[derive(Clone, Copy, Debug)]
@@ -90,12 +90,7 @@ impl Tracker {
                     });
                     // Only the axes outside their limits: inside, the hinge-shaped cost is
                     // flat and a zero row would only damp the joint.
-                    limit_residuals(layout, skeleton, pose, limits, &mut |r, w, col| {
-                        if r != 0.0 {
-                            ne.add_scalar(r, w, col, 1.0)
-                        }
-                    });
-                    translation_limit_residuals(
+                    all_limit_residuals(
                         layout,
                         skeleton,
                         pose,
@@ -115,10 +110,7 @@ impl Tracker {
                         cost += pull.weight * r.norm_squared();
                     }
                     rotation_prior(layout, start, pose, prior, &mut |r, w, _| cost += w * r * r);
-                    limit_residuals(layout, skeleton, pose, limits, &mut |r, w, _| {
-                        cost += w * r * r
-                    });
-                    translation_limit_residuals(
+                    all_limit_residuals(
                         layout,
                         skeleton,
                         pose,
@@ -188,6 +180,24 @@ fn rotation_prior(
             _ => {}
         }
     }
+}
+
+/// The soft limits' residuals of `pose` at `weight`: each limited rotation's excess
+/// (radians, [`limit_residuals`]) and each boxed translation's (heights, `inv_h` one over
+/// the height, [`translation_limit_residuals`]), handed to `add(residual, weight, column,
+/// derivative)`.
+fn all_limit_residuals(
+    layout: &DofLayout,
+    skeleton: &Skeleton,
+    pose: &Pose,
+    weight: f64,
+    inv_h: f64,
+    add: &mut dyn FnMut(f64, f64, usize, f64),
+) {
+    limit_residuals(layout, skeleton, pose, weight, &mut |r, w, col| {
+        add(r, w, col, 1.0)
+    });
+    translation_limit_residuals(layout, skeleton, pose, weight, inv_h, add);
 }
 
 #[cfg(test)]
