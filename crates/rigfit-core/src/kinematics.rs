@@ -217,10 +217,26 @@ impl ForwardKinematics {
         layout: &DofLayout,
         joint: usize,
         p: &Point3,
+        column: impl FnMut(usize, Vector3),
+    ) {
+        self.point_jacobian_below(layout, joint, None, p, column);
+    }
+
+    /// [`Self::point_jacobian`] over the joints from `joint` up to, not including, `stop`
+    /// (every ancestor when `None` or when `stop` is not one).
+    pub fn point_jacobian_below(
+        &self,
+        layout: &DofLayout,
+        joint: usize,
+        stop: Option<usize>,
+        p: &Point3,
         mut column: impl FnMut(usize, Vector3),
     ) {
         let mut cur = Some(joint);
         while let Some(j) = cur {
+            if cur == stop {
+                break;
+            }
             cur = self.parent[j];
             let Some(o) = layout.offset(j) else { continue };
             let a = &self.frame_linear[j];

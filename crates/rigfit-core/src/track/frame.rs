@@ -113,6 +113,7 @@ impl Tracker {
             found_at: None,
             finds: 0,
             timing: [0.0; 3],
+            pulls: Vec::new(),
         };
         let Ok(report) = run_em(&mut frame, &schedule);
         let FrameEm {
@@ -199,6 +200,8 @@ struct FrameEm<'t, 'd> {
     finds: usize,
     /// Seconds searching, in E-steps and in M-steps.
     timing: [f64; 3],
+    /// The M-step's pulls, kept between steps.
+    pulls: Vec<Pull>,
 }
 
 impl EmModel for FrameEm<'_, '_> {
@@ -297,31 +300,33 @@ impl EmModel for FrameEm<'_, '_> {
         let tracker = &mut *self.tracker;
         let (world, fk) = (&self.world, &self.fk);
         // Eq. (20): each model point pulled to G_i with weight lambda_i.
-        let pulls: Vec<Pull> = self
-            .model_reps
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| tracker.em.lambda[*k] > 1e-9)
-            .map(|(k, r)| {
-                let point = tracker.texture[r.index];
-                let mut target = tracker.em.target[k];
-                if tracker.options.point_to_plane && tracker.model.surface_normals.is_some() {
-                    // The normal part of the pull (the point-to-plane gradient, free of the
-                    // tangential bias of blurred centroids) and a share of the rest, which
-                    // keeps a limb from sliding along or turning about itself.
-                    let x = world[k];
-                    let n = point.world_normal(fk);
-                    let pull = target - x;
-                    let normal = n * n.dot(&pull);
-                    target = x + normal + (pull - normal) * tracker.options.tangential;
-                }
-                Pull {
-                    point,
-                    target,
-                    weight: tracker.em.lambda[k],
-                }
-            })
-            .collect();
+        let mut pulls = std::mem::take(&mut self.pulls);
+        pulls.clear();
+        pulls.extend(
+            self.model_reps
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| tracker.em.lambda[*k] > 1e-9)
+                .map(|(k, r)| {
+                    let point = tracker.texture[r.index];
+                    let mut target = tracker.em.target[k];
+                    if tracker.options.point_to_plane && tracker.model.surface_normals.is_some() {
+                        // The normal part of the pull (the point-to-plane gradient, free of the
+                        // tangential bias of blurred centroids) and a share of the rest, which
+                        // keeps a limb from sliding along or turning about itself.
+                        let x = world[k];
+                        let n = point.world_normal(fk);
+                        let pull = target - x;
+                        let normal = n * n.dot(&pull);
+                        target = x + normal + (pull - normal) * tracker.options.tangential;
+                    }
+                    Pull {
+                        point,
+                        target,
+                        weight: tracker.em.lambda[k],
+                    }
+                }),
+        );
         let t2 = std::time::Instant::now();
         let before = self.fk.clone();
         tracker.fit(
@@ -331,6 +336,7 @@ impl EmModel for FrameEm<'_, '_> {
             stage.last_level,
             tracker.options.over_relaxation,
         );
+        self.pulls = pulls;
         self.fk.update(&tracker.model.skeleton, &tracker.pose);
         self.timing[1] += (t2 - t1).as_secs_f64();
         self.timing[2] += t2.elapsed().as_secs_f64();

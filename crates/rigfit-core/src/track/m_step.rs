@@ -62,6 +62,8 @@ impl Tracker {
                     ne.clear();
                     moments.reset(skeleton.len());
                     let mut blended = Vec::new();
+                    let mut split = Vec::new();
+                    let mut lower: Vec<(usize, Vector3)> = Vec::new();
                     for pull in pulls {
                         let x = pull.point.world(fk);
                         let r = (x - pull.target) * inv_h;
@@ -70,20 +72,45 @@ impl Tracker {
                             // Nearly rigid: the dominant joint's Jacobian.
                             let j = pull.point.joints[usize::from(w < 0.5)];
                             moments.add_point(fk, j, &x, &r, pull.weight);
-                        } else {
-                            blended.push((pull, r));
+                            continue;
+                        }
+                        // Blended on one chain (eq. 3): rigid on the upper joint (summarised
+                        // by its moments), plus the columns only the lower part moves.
+                        let from = lower.len();
+                        match pull.point.chain_split(fk, layout, inv_h, &mut lower) {
+                            Some((upper, x)) => {
+                                moments.add_point(fk, upper, &x, &r, pull.weight);
+                                split.push((pull.weight, r, upper, x, from..lower.len()));
+                            }
+                            None => blended.push((pull, r)),
                         }
                     }
-                    // Blended points (eq. 3) need the tree or dense form for their
-                    // Jacobian, the weighted sum of both parts' (exact, not summarised by
-                    // moments).
-                    ne.set_allow_articulated(blended.is_empty());
+                    // Blended points need the tree or dense form for their Jacobian, the
+                    // weighted sum of both parts' (exact, not summarised by moments).
+                    ne.set_allow_articulated(blended.is_empty() && split.is_empty());
                     ne.assemble_points(moments, fk, inv_h);
                     let mut cols: Vec<(usize, Vector3)> = Vec::new();
                     for (pull, r) in blended {
                         cols.clear();
                         pull.point.jacobian(fk, layout, inv_h, &mut cols);
                         ne.add_point_columns(&r, pull.weight, &cols);
+                    }
+                    // The split points' lower columns: their own block, their share of
+                    // `J^T r`, and their products with the upper chain's columns.
+                    for (w, r, upper, x, range) in split {
+                        let low = &lower[range];
+                        if low.is_empty() {
+                            continue;
+                        }
+                        cols.clear();
+                        fk.point_jacobian(layout, upper, &x, |i, v| cols.push((i, v * inv_h)));
+                        for (a, &(ca, va)) in low.iter().enumerate() {
+                            let wa = va * w;
+                            ne.add_jtr(ca, wa.dot(&r));
+                            for &(cb, vb) in low[a..].iter().chain(&cols) {
+                                ne.add_jtj(ca, cb, wa.dot(&vb));
+                            }
+                        }
                     }
                     rotation_prior(layout, start, pose, prior, &mut |r, w, col| {
                         ne.add_scalar(r, w, col, 1.0)

@@ -123,22 +123,7 @@ impl TexturePoint {
         cols: &mut Vec<(usize, Vector3)>,
     ) {
         let start = cols.len();
-        let [j0, j1] = self.joints;
-        let above = |upper: usize, lower: usize| {
-            let mut cur = Some(lower);
-            while let Some(c) = cur {
-                if c == upper {
-                    return true;
-                }
-                cur = fk.parent(c);
-            }
-            false
-        };
-        let (upper, lower, w_lower) = if above(j1, j0) {
-            (j1, j0, self.weight)
-        } else if above(j0, j1) {
-            (j0, j1, 1.0 - self.weight)
-        } else {
+        let Some((upper, x)) = self.chain_split(fk, layout, scale, cols) else {
             // Not on one chain: sum both Jacobians, merging shared ancestors.
             for k in 0..2 {
                 let w = if k == 0 {
@@ -157,16 +142,48 @@ impl TexturePoint {
             }
             return;
         };
-        let x = self.world(fk);
         fk.point_jacobian(layout, upper, &x, |i, v| cols.push((i, v * scale)));
-        let mid = cols.len();
-        let k_lower = usize::from(lower == j1 && j0 != j1);
-        let y = fk.point(lower, &self.local[k_lower]);
-        fk.point_jacobian(layout, lower, &y, |i, v| {
-            if !cols[start..mid].iter().any(|c| c.0 == i) {
-                cols.push((i, v * (w_lower * scale)));
+    }
+
+    /// For a point whose two joints lie on one chain: the upper joint and the blended world
+    /// position, where the joints from the upper one up move the point rigidly (eq. 3: both
+    /// carried positions turn with them); appended to `lower`, the columns (scaled by
+    /// `scale`) of the joints from the lower one up to the upper one, which move only the
+    /// lower part's position, weighted by its share. `None` (and nothing appended) when the
+    /// joints are on different branches.
+    pub fn chain_split(
+        &self,
+        fk: &ForwardKinematics,
+        layout: &DofLayout,
+        scale: f64,
+        lower: &mut Vec<(usize, Vector3)>,
+    ) -> Option<(usize, Point3)> {
+        let [j0, j1] = self.joints;
+        let above = |upper: usize, below: usize| {
+            let mut cur = Some(below);
+            while let Some(c) = cur {
+                if c == upper {
+                    return true;
+                }
+                cur = fk.parent(c);
             }
-        });
+            false
+        };
+        let (upper, low, k_low, w_low) = if above(j1, j0) {
+            (j1, j0, 0, self.weight)
+        } else if above(j0, j1) {
+            (j0, j1, 1, 1.0 - self.weight)
+        } else {
+            return None;
+        };
+        let x = self.world(fk);
+        if low != upper {
+            let y = fk.point(low, &self.local[k_low]);
+            fk.point_jacobian_below(layout, low, Some(upper), &y, |i, v| {
+                lower.push((i, v * (w_low * scale)))
+            });
+        }
+        Some((upper, x))
     }
 }
 

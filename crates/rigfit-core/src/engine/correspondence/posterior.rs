@@ -16,7 +16,10 @@ pub fn exp_negative(x: f64) -> f64 {
     if t < -1000.0 {
         return 0.0;
     }
-    let k = t.round();
+    // Round to nearest by the 1.5 * 2^52 shift (exact for |t| < 2^51), not the library
+    // call `round` is on targets without SSE4.1.
+    const SHIFT: f64 = 6_755_399_441_055_744.0;
+    let k = (t + SHIFT) - SHIFT;
     let f = (t - k) * std::f64::consts::LN_2;
     // e^f for |f| <= ln 2 / 2: Taylor to degree 7.
     let p = 1.0

@@ -13,9 +13,10 @@ pub struct PointGrid {
     dims: [usize; 3],
     /// `starts[c]..starts[c + 1]` indexes `order` for cell `c`.
     starts: Vec<u32>,
-    /// Point indices sorted by cell.
+    /// Point indices sorted by cell, and the points in that order (a query reads them in
+    /// sequence, not scattered).
     order: Vec<u32>,
-    points: Vec<Point3>,
+    sorted: Vec<Point3>,
     /// Scratch for building: (point, cell) and fill positions.
     keys: Vec<(u32, usize)>,
     fill: Vec<u32>,
@@ -37,8 +38,6 @@ impl PointGrid {
 
     /// Builds the grid again over `points`, reusing storage.
     pub fn rebuild(&mut self, points: &[Point3], cell: f64) {
-        self.points.clear();
-        self.points.extend_from_slice(points);
         let finite = || points.iter().filter(|p| p.iter().all(|c| c.is_finite()));
         let mut lo = Point3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
         let mut hi = -lo;
@@ -47,6 +46,7 @@ impl PointGrid {
             hi = hi.sup(p);
         }
         self.order.clear();
+        self.sorted.clear();
         self.starts.clear();
         if lo.x > hi.x {
             self.dims = [0; 3];
@@ -93,6 +93,8 @@ impl PointGrid {
             self.order[fill[c] as usize] = i;
             fill[c] += 1;
         }
+        self.sorted
+            .extend(self.order.iter().map(|&i| points[i as usize]));
         self.keys = keys;
         self.fill = fill;
     }
@@ -104,7 +106,7 @@ impl PointGrid {
 
     fn coords(&self, p: &Point3) -> [i64; 3] {
         let u = (p - self.origin) / self.cell;
-        [u.x.floor() as i64, u.y.floor() as i64, u.z.floor() as i64]
+        [floor_i64(u.x), floor_i64(u.y), floor_i64(u.z)]
     }
 
     fn cell_of(&self, p: &Point3) -> Option<usize> {
@@ -140,8 +142,8 @@ impl PointGrid {
                 let (z0, z1) = (*zs.start() as usize, *zs.end() as usize);
                 let from = self.starts[row + z0] as usize;
                 let to = self.starts[row + z1 + 1] as usize;
-                for &i in &self.order[from..to] {
-                    let d2 = (self.points[i as usize] - q).norm_squared();
+                for (p, &i) in self.sorted[from..to].iter().zip(&self.order[from..to]) {
+                    let d2 = (p - q).norm_squared();
                     if d2 <= r2 {
                         f(i as usize, d2);
                     }
@@ -163,24 +165,73 @@ impl PointGrid {
 }
 
 /// One representative per occupied cube of side `cell`: the first point met in it, and how
-/// many points the cube holds. Non-finite points are dropped.
+/// many points the cube holds, in the order of the representatives' indices. Non-finite
+/// points are dropped.
 pub fn voxel_subsample(points: &[Point3], cell: f64) -> Vec<(usize, u32)> {
     let Some(origin) = points.iter().find(|p| p.iter().all(|c| c.is_finite())) else {
         return Vec::new();
     };
-    let mut cells: std::collections::HashMap<[i64; 3], (usize, u32)> =
-        std::collections::HashMap::with_capacity(points.len() / 2);
+    // Cube -> its slot in `out`; slots are taken in the order points are met.
+    let mut slots: std::collections::HashMap<[i64; 3], u32, CellHasher> =
+        std::collections::HashMap::with_capacity_and_hasher(points.len() / 2, CellHasher);
+    let mut out: Vec<(usize, u32)> = Vec::with_capacity(points.len() / 2);
     for (i, p) in points.iter().enumerate() {
         let u = (p - origin) / cell;
         if !u.iter().all(|c| c.is_finite() && c.abs() < 1e15) {
             continue;
         }
-        let key = [u.x.floor() as i64, u.y.floor() as i64, u.z.floor() as i64];
-        cells.entry(key).and_modify(|e| e.1 += 1).or_insert((i, 1));
+        let key = [floor_i64(u.x), floor_i64(u.y), floor_i64(u.z)];
+        let slot = *slots.entry(key).or_insert(out.len() as u32);
+        match out.get_mut(slot as usize) {
+            Some(rep) => rep.1 += 1,
+            None => out.push((i, 1)),
+        }
     }
-    let mut out: Vec<(usize, u32)> = cells.into_values().collect();
-    out.sort_unstable_by_key(|&(i, _)| i);
     out
+}
+
+/// `x.floor() as i64` without the library call `floor` is on targets without SSE4.1: the
+/// truncation, one less where it rounded up.
+#[inline]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t - i64::from((t as f64) > x)
+}
+
+/// A hasher for integer cell coordinates (a multiply-rotate mix, as FxHash): the keys are
+/// ours, so the standard library's collision-resistant SipHash is not needed.
+#[derive(Clone, Copy, Debug, Default)]
+struct CellHasher;
+
+impl std::hash::BuildHasher for CellHasher {
+    type Hasher = CellHash;
+    fn build_hasher(&self) -> CellHash {
+        CellHash(0)
+    }
+}
+
+struct CellHash(u64);
+
+impl std::hash::Hasher for CellHash {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+    fn write_i64(&mut self, x: i64) {
+        self.write_u64(x as u64);
+    }
+    fn write_usize(&mut self, x: usize) {
+        self.write_u64(x as u64);
+    }
 }
 
 #[cfg(test)]
