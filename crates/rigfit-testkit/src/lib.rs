@@ -17,6 +17,8 @@
 //!   `rigfit_core::pose::sketch` and [`targets`].
 //! - [`sweep`]: every chosen case solved, with its errors ([`Outcome`]); [`sweep::limb_motion`].
 //! - [`report`]: tables per rig and per half, the worst cases, the held-out check.
+//! - [`symmetry`]: a rig's own geometric symmetries (turns that map its body onto itself
+//!   with joints relabelled), up to which tracking is judged ([`track_corpus`]).
 //!
 //! The `pose_corpus` example prints the tables; `tests/pose_corpus.rs` asserts the bounds.
 
@@ -28,6 +30,7 @@ pub mod scenario;
 pub mod surface_cases;
 pub mod surface_corpus;
 pub mod sweep;
+pub mod symmetry;
 pub mod targets;
 pub mod track_cases;
 pub mod track_corpus;
