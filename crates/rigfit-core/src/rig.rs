@@ -88,22 +88,30 @@ impl Rig {
     /// Gives translation degrees of freedom ([`JointDof::Free`]) to every joint of the
     /// character (skin joints and the helpers linking them) whose animations move its
     /// translation (markers, hip nodes, BVH position channels that change): posing and
-    /// tracking must move them as the file does. Returns how many joints were freed.
+    /// tracking must move them as the file does. A translation the animations hold still
+    /// (an exporter's constant offset from the rest pose, a BVH position channel that never
+    /// changes) is not a motion: such a joint keeps its degrees of freedom. Returns how
+    /// many joints were freed.
     pub fn free_translating_joints(&mut self) -> usize {
         let size = self.height().max(1e-12);
-        let mut translates = vec![false; self.skeleton.len()];
+        // Per joint, the box of the translations its animations give it.
+        let mut boxes: Vec<Option<(Vector3, Vector3)>> = vec![None; self.skeleton.len()];
         for animation in &self.animations {
             for channel in &animation.channels {
-                if channel.target != ChannelTarget::Translation || channel.joint >= translates.len()
-                {
+                if channel.target != ChannelTarget::Translation || channel.joint >= boxes.len() {
                     continue;
                 }
-                let rest = self.skeleton.joint(channel.joint).rest.translation;
-                translates[channel.joint] |= channel.values.iter().any(|v| {
-                    (Vector3::new(v[0], v[1], v[2]) - rest).norm() > TRANSLATION_TOLERANCE * size
-                });
+                for v in &channel.values {
+                    let t = Vector3::new(v[0], v[1], v[2]);
+                    let b = boxes[channel.joint].get_or_insert((t, t));
+                    *b = (b.0.inf(&t), b.1.sup(&t));
+                }
             }
         }
+        let translates: Vec<bool> = boxes
+            .iter()
+            .map(|b| b.is_some_and(|(lo, hi)| (hi - lo).norm() > TRANSLATION_TOLERANCE * size))
+            .collect();
         let mut freed = 0;
         let linking = self.skeleton.linking_helpers();
         for (j, &moves) in translates.iter().enumerate() {
@@ -330,5 +338,17 @@ mod tests {
         assert_eq!(rig.free_translating_joints(), 1);
         assert_eq!(rig.skeleton.joint(1).dof, JointDof::Free, "the hip");
         assert_ne!(rig.skeleton.joint(3).dof, JointDof::Free, "the IK goal");
+        // The leg held 0.1 off its rest translation all clip long: an exporter's constant
+        // offset, not a motion.
+        let held = AnimationChannel {
+            joint: 2,
+            target: ChannelTarget::Translation,
+            interpolation: Interpolation::Linear,
+            times: vec![0.0, 1.0],
+            values: vec![[0.1, -0.5, 0.0, 0.0]; 2],
+        };
+        rig.animations[0].channels.push(held);
+        assert_eq!(rig.free_translating_joints(), 0, "only the hip moves");
+        assert_ne!(rig.skeleton.joint(2).dof, JointDof::Free, "the leg");
     }
 }
