@@ -15,7 +15,7 @@
 //! `VERBOSE=1` prints each take's per-frame errors, root turn errors and worst joints to
 //! stderr, `VERBOSE=2` also the true motion's steps and every joint's mean error,
 //! `FROM_TRUTH=1` tracks from the first frame's true pose instead (the tracker's own error),
-//! `TANGENTIAL=x`, `PRIOR=x`, `MAX_MOTION=x`, `ANNEAL_STEPS=n`, `PREDICTION=x`, `FINAL_ITERATIONS=n`, `NOISE=x`, `EXPONENT=x`,
+//! `TANGENTIAL=x`, `PRIOR=x`, `MAX_MOTION=x`, `ANNEAL_STEPS=n`, `LIMIT_WEIGHT=x`, `PREDICTION=x`, `FINAL_ITERATIONS=n`, `NOISE=x`, `EXPONENT=x`,
 //! `RELAXATION=x` and `POINT_TO_PLANE=0` set the tracker's options of those names,
 //! `SWINGS=1` turns on the first-frame search's limb swings, and `FULL_PASSES=n`,
 //! `REFINE_SIGMA=x`, `REFINE_STEPS=n` and `FULL_PRIOR=x` set its options). The corpus is
@@ -61,6 +61,7 @@ fn settings() -> TakeSettings {
     env_knobs::set("TANGENTIAL", &mut track.tangential);
     env_knobs::set("PRIOR", &mut track.prior_weight);
     env_knobs::set("MAX_MOTION", &mut track.max_motion);
+    env_knobs::set("LIMIT_WEIGHT", &mut track.limit_weight);
     env_knobs::set_count("ANNEAL_STEPS", &mut track.anneal_steps);
     env_knobs::set("PREDICTION", &mut track.prediction);
     env_knobs::set_count("FINAL_ITERATIONS", &mut track.final_em_iterations);
