@@ -242,8 +242,11 @@ impl EmModel for FrameEm<'_, '_> {
 
     fn e_step(&mut self, stage: &Stage) -> Result<Expectation, Self::Error> {
         let sigma = stage.sigma;
-        let margin = 0.5 * sigma;
         let tracker = &mut *self.tracker;
+        // Neighbours are found with a margin for the motion while a level's E-steps reuse
+        // them; a level of one E-step (above the noise level, one EM iteration) needs none.
+        let reused = stage.last_level || tracker.options.em_iterations > 1;
+        let margin = if reused { 0.5 * sigma } else { 0.0 };
         self.world.clear();
         self.world.extend(
             self.model_reps
