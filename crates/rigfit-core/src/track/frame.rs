@@ -243,23 +243,38 @@ impl EmModel for FrameEm<'_, '_> {
     fn e_step(&mut self, stage: &Stage) -> Result<Expectation, Self::Error> {
         let sigma = stage.sigma;
         let tracker = &mut *self.tracker;
-        // Neighbours are found with a margin for the motion while a level's E-steps reuse
-        // them; a level of one E-step (above the noise level, one EM iteration) needs none.
-        let reused = stage.last_level || tracker.options.em_iterations > 1;
-        let margin = if reused { 0.5 * sigma } else { 0.0 };
         self.world.clear();
         self.world.extend(
             self.model_reps
                 .iter()
                 .map(|r| tracker.texture[r.index].world(&self.fk)),
         );
+        let level_data = self.coarse_points.as_deref().unwrap_or(self.data);
+        let data = WeightedPoints {
+            points: level_data,
+            weights: self.data_weight.as_deref(),
+        };
+        let model = WeightedPoints {
+            points: &self.world,
+            weights: self.model_weight.as_deref(),
+        };
+        let c = tracker.options.outlier_constant;
+        let t0 = std::time::Instant::now();
+        // A level of one E-step (above the noise level, one EM iteration) reads each point's
+        // neighbours from the grid as it goes; a level of several finds them once, with a
+        // margin for the motion, and searches again only when a model point moved farther.
+        let reused = stage.last_level || tracker.options.em_iterations > 1;
+        if !reused {
+            em_step(data, model, sigma, c, &mut tracker.grid, &mut tracker.em);
+            self.timing[1] += t0.elapsed().as_secs_f64();
+            return Ok(Expectation::Ready);
+        }
+        let margin = 0.5 * sigma;
         let stale = self.found_at.as_ref().is_none_or(|at| {
             at.iter()
                 .zip(&self.world)
                 .any(|(a, b)| (a - b).norm_squared() > margin * margin)
         });
-        let level_data = self.coarse_points.as_deref().unwrap_or(self.data);
-        let t0 = std::time::Instant::now();
         if stale {
             tracker.candidates.find(
                 level_data,
@@ -279,20 +294,7 @@ impl EmModel for FrameEm<'_, '_> {
             );
         }
         let t1 = std::time::Instant::now();
-        em_step_with(
-            WeightedPoints {
-                points: level_data,
-                weights: self.data_weight.as_deref(),
-            },
-            WeightedPoints {
-                points: &self.world,
-                weights: self.model_weight.as_deref(),
-            },
-            sigma,
-            tracker.options.outlier_constant,
-            &tracker.candidates,
-            &mut tracker.em,
-        );
+        em_step_with(data, model, sigma, c, &tracker.candidates, &mut tracker.em);
         self.timing[0] += (t1 - t0).as_secs_f64();
         self.timing[1] += t1.elapsed().as_secs_f64();
         Ok(Expectation::Ready)

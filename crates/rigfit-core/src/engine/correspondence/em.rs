@@ -78,7 +78,8 @@ impl<'a> WeightedPoints<'a> {
 
 /// One E-step (eq. 17) of data points against model points (each standing for its weight
 /// in points) at width `sigma`, with outlier constant `outlier_c`. `grid` is rebuilt over
-/// the model.
+/// the model, and each data point's neighbours within the kernel's cutoff are read from it
+/// as they are used (no candidate lists are kept).
 pub fn em_step(
     data: WeightedPoints<'_>,
     model: WeightedPoints<'_>,
@@ -87,14 +88,10 @@ pub fn em_step(
     grid: &mut PointGrid,
     out: &mut EmStep,
 ) {
-    let mut candidates = Candidates::default();
-    candidates.find(
-        data.points,
-        model.points,
-        candidate_radius(sigma, 0.0),
-        grid,
-    );
-    em_step_with(data, model, sigma, outlier_c, &candidates, out);
+    let cutoff = candidate_radius(sigma, 0.0);
+    grid.rebuild(model.points, cutoff);
+    let neighbours = GridNeighbours { grid, cutoff };
+    em_step_over(data, model, sigma, outlier_c, &neighbours, out);
 }
 
 /// [`em_step`] over neighbours found beforehand: only `candidates` are considered, and of
@@ -107,9 +104,59 @@ pub fn em_step_with(
     candidates: &Candidates,
     out: &mut EmStep,
 ) {
+    let neighbours = ListedNeighbours {
+        candidates,
+        model: model.points,
+    };
+    em_step_over(data, model, sigma, outlier_c, &neighbours, out);
+}
+
+/// Where an E-step finds each data point's model neighbours.
+trait Neighbours: Sync {
+    /// Hands `f(model index, squared distance)` the neighbours of data point `j` at `y`.
+    fn each(&self, j: usize, y: &Point3, f: impl FnMut(usize, f64));
+}
+
+/// Read from a grid over the model as they are used.
+struct GridNeighbours<'a> {
+    grid: &'a PointGrid,
+    cutoff: f64,
+}
+
+impl Neighbours for GridNeighbours<'_> {
+    fn each(&self, _: usize, y: &Point3, f: impl FnMut(usize, f64)) {
+        self.grid.for_each_within(y, self.cutoff, f);
+    }
+}
+
+/// Found beforehand ([`Candidates`]).
+struct ListedNeighbours<'a> {
+    candidates: &'a Candidates,
+    model: &'a [Point3],
+}
+
+impl Neighbours for ListedNeighbours<'_> {
+    fn each(&self, j: usize, y: &Point3, mut f: impl FnMut(usize, f64)) {
+        for &i in self.candidates.of(j) {
+            let i = i as usize;
+            f(i, (self.model[i] - y).norm_squared());
+        }
+    }
+}
+
+/// The E-step over each data point's `neighbours`: those beyond the kernel's cutoff are
+/// skipped.
+fn em_step_over(
+    data: WeightedPoints<'_>,
+    model: WeightedPoints<'_>,
+    sigma: f64,
+    outlier_c: f64,
+    neighbours: &impl Neighbours,
+    out: &mut EmStep,
+) {
     let (data, data_weight) = (data.points, data.weights);
-    let (model, model_weight) = (model.points, model.weights);
-    let n = model.len();
+    let model_weight = model.weights;
+    let n = model.points.len();
     let cutoff2 = (CUTOFF_SIGMAS * sigma).powi(2);
     let kernel = GaussianKernel::new(sigma);
     out.inlier.clear();
@@ -121,16 +168,13 @@ pub fn em_step_with(
     let visit = |j: usize, y: &Point3, sums: &mut Sums, scratch: &mut Vec<(usize, f64)>| {
         scratch.clear();
         let mut evidence = Evidence::new();
-        for &i in candidates.of(j) {
-            let i = i as usize;
-            let d2 = (model[i] - y).norm_squared();
-            if d2 > cutoff2 {
-                continue;
+        neighbours.each(j, y, |i, d2| {
+            if d2 <= cutoff2 {
+                let e = model_weight.map_or(1.0, |w| w[i]) * kernel.fast(d2);
+                evidence.add(e);
+                scratch.push((i, e));
             }
-            let e = model_weight.map_or(1.0, |w| w[i]) * kernel.fast(d2);
-            evidence.add(e);
-            scratch.push((i, e));
-        }
+        });
         if evidence.total() == 0.0 {
             return (0.0, u32::MAX);
         }
