@@ -6,9 +6,11 @@
 
 use rigfit_testkit::Corpus;
 use rigfit_testkit::track_cases::SequenceOptions;
-use rigfit_testkit::track_corpus::{TakeSettings, corpus_sequence, suite_sequence, track_sequence};
+use rigfit_testkit::track_corpus::{
+    TakeOutcome, TakeSettings, corpus_sequence, suite_sequence, track_sequence,
+};
 
-fn assert_within_bounds(label: &str, outcome: &rigfit_testkit::track_corpus::TakeOutcome) {
+fn assert_within_bounds(label: &str, outcome: &TakeOutcome) {
     assert!(
         outcome.ok(),
         "{label}: mean {:.2}% from frame 5, worst {:.2}%, {} frames above 10% ({})",
@@ -34,25 +36,18 @@ fn a_skinned_character_is_found_and_tracked_from_its_bind_pose() {
 
 #[test]
 fn a_held_out_mocap_skeleton_is_found_and_tracked_from_its_rest_pose() {
-    let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
-    let sequence = corpus_sequence(
-        &corpus,
-        "assimp-boxing_toes",
-        0,
-        &SequenceOptions::default(),
-    )
-    .expect("sequence");
-    let outcome = track_sequence(&sequence, &TakeSettings::default()).expect("tracks");
-    assert_within_bounds("assimp-boxing_toes", &outcome);
+    corpus_take_within_bounds("assimp-boxing_toes", 0);
 }
 
-/// A held-out corpus rig (`id`) moved by `seed`'s rigid motion, tracked from its rest pose.
-fn corpus_take_within_bounds(id: &str, seed: u64) {
+/// A held-out corpus rig (`id`) moved by `seed`'s rigid motion, tracked from its rest pose
+/// within the bounds; the take's outcome.
+fn corpus_take_within_bounds(id: &str, seed: u64) -> TakeOutcome {
     let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
     let sequence =
         corpus_sequence(&corpus, id, seed, &SequenceOptions::default()).expect("sequence");
     let outcome = track_sequence(&sequence, &TakeSettings::default()).expect("tracks");
     assert_within_bounds(id, &outcome);
+    outcome
 }
 
 #[test]
@@ -73,16 +68,7 @@ fn a_held_out_box_character_is_tracked_as_itself_or_its_symmetric_twin() {
     // Its body maps onto itself under a half turn with left and right swapped: the take
     // lands on the twin (16.6% strict, 0.43% up to the symmetry when measured), which no
     // points can tell from the truth.
-    let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
-    let sequence = corpus_sequence(
-        &corpus,
-        "minetest-character",
-        0,
-        &SequenceOptions::default(),
-    )
-    .expect("sequence");
-    let outcome = track_sequence(&sequence, &TakeSettings::default()).expect("tracks");
-    assert_within_bounds("minetest-character", &outcome);
+    let outcome = corpus_take_within_bounds("minetest-character", 0);
     assert_eq!(outcome.strict_errors.len(), outcome.errors.len());
     if outcome.twin {
         assert!(!outcome.strict_ok(), "a twin is wrong without relabelling");

@@ -78,7 +78,7 @@ impl Tracker {
                         // by its moments), plus the columns only the lower part moves.
                         let from = lower.len();
                         match pull.point.chain_split(fk, layout, inv_h, &mut lower) {
-                            Some((upper, x)) => {
+                            Some(upper) => {
                                 moments.add_point(fk, upper, &x, &r, pull.weight);
                                 split.push((pull.weight, r, upper, x, from..lower.len()));
                             }

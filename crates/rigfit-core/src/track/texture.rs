@@ -123,7 +123,7 @@ impl TexturePoint {
         cols: &mut Vec<(usize, Vector3)>,
     ) {
         let start = cols.len();
-        let Some((upper, x)) = self.chain_split(fk, layout, scale, cols) else {
+        let Some(upper) = self.chain_split(fk, layout, scale, cols) else {
             // Not on one chain: sum both Jacobians, merging shared ancestors.
             for k in 0..2 {
                 let w = if k == 0 {
@@ -142,12 +142,14 @@ impl TexturePoint {
             }
             return;
         };
-        fk.point_jacobian(layout, upper, &x, |i, v| cols.push((i, v * scale)));
+        fk.point_jacobian(layout, upper, &self.world(fk), |i, v| {
+            cols.push((i, v * scale))
+        });
     }
 
-    /// For a point whose two joints lie on one chain: the upper joint and the blended world
-    /// position, where the joints from the upper one up move the point rigidly (eq. 3: both
-    /// carried positions turn with them); appended to `lower`, the columns (scaled by
+    /// For a point whose two joints lie on one chain: the upper joint, from which up the
+    /// joints move the point rigidly (eq. 3: both carried positions turn with them), so
+    /// their columns are those of a point carried by it at the blended position; appended to `lower`, the columns (scaled by
     /// `scale`) of the joints from the lower one up to the upper one, which move only the
     /// lower part's position, weighted by its share. `None` (and nothing appended) when the
     /// joints are on different branches.
@@ -157,7 +159,7 @@ impl TexturePoint {
         layout: &DofLayout,
         scale: f64,
         lower: &mut Vec<(usize, Vector3)>,
-    ) -> Option<(usize, Point3)> {
+    ) -> Option<usize> {
         let [j0, j1] = self.joints;
         let above = |upper: usize, below: usize| {
             let mut cur = Some(below);
@@ -176,14 +178,13 @@ impl TexturePoint {
         } else {
             return None;
         };
-        let x = self.world(fk);
         if low != upper {
             let y = fk.point(low, &self.local[k_low]);
             fk.point_jacobian_below(layout, low, Some(upper), &y, |i, v| {
                 lower.push((i, v * (w_low * scale)))
             });
         }
-        Some((upper, x))
+        Some(upper)
     }
 }
 
