@@ -165,6 +165,7 @@ pub fn initialise_with(
         visible_only: false,
         coarse_to_fine: true,
         prior_weight: 0.0,
+        hold_free_joints: false,
         surface_fit_steps: 0,
         texture: super::TextureSource::ModelSurface,
         ..options.clone()

@@ -50,6 +50,11 @@ impl Tracker {
         };
         let inv_h = 1.0 / self.model.height;
         let prior = self.options.prior_weight;
+        let held = if self.options.hold_free_joints {
+            held_free_joints(&self.layout, skeleton)
+        } else {
+            Vec::new()
+        };
         let limits = self.options.limit_weight;
         let layout = &self.layout;
         let objective = |pose: &Pose,
@@ -112,9 +117,15 @@ impl Tracker {
                             }
                         }
                     }
-                    rotation_prior(layout, start, pose, prior, &mut |r, w, col| {
-                        ne.add_scalar(r, w, col, 1.0)
-                    });
+                    rotation_prior(
+                        layout,
+                        &held,
+                        start,
+                        pose,
+                        prior,
+                        inv_h,
+                        &mut |r, w, col, d| ne.add_scalar(r, w, col, d),
+                    );
                     // Only the axes outside their limits: inside, the hinge-shaped cost is
                     // flat and a zero row would only damp the joint.
                     all_limit_residuals(
@@ -136,7 +147,15 @@ impl Tracker {
                         let r = (pull.point.world(fk) - pull.target) * inv_h;
                         cost += pull.weight * r.norm_squared();
                     }
-                    rotation_prior(layout, start, pose, prior, &mut |r, w, _| cost += w * r * r);
+                    rotation_prior(
+                        layout,
+                        &held,
+                        start,
+                        pose,
+                        prior,
+                        inv_h,
+                        &mut |r, w, _, _| cost += w * r * r,
+                    );
                     all_limit_residuals(
                         layout,
                         skeleton,
@@ -187,13 +206,18 @@ impl Tracker {
     }
 }
 
-/// `Phi`: each rotating joint's rotation vector away from `start`, per axis.
+/// `Phi`: each rotating joint's rotation vector away from `start`, per axis, handed to
+/// `add(residual, weight, column, derivative)`; and each of the `held` free joints
+/// ([`held_free_joints`]) held the same way, its rotation and its translation (in heights,
+/// `inv_h` one over the height).
 fn rotation_prior(
     layout: &DofLayout,
+    held: &[bool],
     start: &Pose,
     pose: &Pose,
     weight: f64,
-    add: &mut dyn FnMut(f64, f64, usize),
+    inv_h: f64,
+    add: &mut dyn FnMut(f64, f64, usize, f64),
 ) {
     if weight <= 0.0 {
         return;
@@ -202,11 +226,47 @@ fn rotation_prior(
         let Some(o) = layout.offset(j) else { continue };
         let delta = (start.local[j].rotation.inverse() * pose.local[j].rotation).scaled_axis();
         match layout.dof(j) {
-            JointDof::Ball => (0..3).for_each(|a| add(delta[a], weight, o + a)),
-            JointDof::Hinge { axis } => add(delta.dot(&axis.normalize()), weight, o),
+            JointDof::Ball => (0..3).for_each(|a| add(delta[a], weight, o + a, 1.0)),
+            JointDof::Hinge { axis } => add(delta.dot(&axis.normalize()), weight, o, 1.0),
+            JointDof::Free if held.get(j).copied().unwrap_or(false) => {
+                let moved = pose.local[j].translation - start.local[j].translation;
+                (0..3).for_each(|a| add(moved[a] * inv_h, weight, o + a, inv_h));
+                (0..3).for_each(|a| add(delta[a], weight, o + 3 + a, 1.0));
+            }
             _ => {}
         }
     }
+}
+
+/// The free joints the prior holds ([`super::TrackOptions::hold_free_joints`]): those below
+/// a moving joint that carry joints of their own (a hip node or an IK goal a clip
+/// translates, with a leg or a hand below it). Where the data does not pin such a joint (a
+/// limb sliding along itself) it would wander from frame to frame. The topmost free joints
+/// (the body's root) and free leaves (a marker, pinned by its own points) move with the
+/// data alone.
+fn held_free_joints(layout: &DofLayout, skeleton: &Skeleton) -> Vec<bool> {
+    let n = layout.joint_count();
+    let mut carries = vec![false; n];
+    for j in 0..n {
+        if let Some(p) = skeleton.joint(j).parent {
+            carries[p] = true;
+        }
+    }
+    (0..n)
+        .map(|j| {
+            if layout.offset(j).is_none() || layout.dof(j) != JointDof::Free || !carries[j] {
+                return false;
+            }
+            let mut at = skeleton.joint(j).parent;
+            while let Some(p) = at {
+                if layout.offset(p).is_some() {
+                    return true;
+                }
+                at = skeleton.joint(p).parent;
+            }
+            false
+        })
+        .collect()
 }
 
 /// The soft limits' residuals of `pose` at `weight`: each limited rotation's excess

@@ -41,6 +41,11 @@ pub struct TrackOptions {
     pub coarse_to_fine: bool,
     /// Weight of the prior keeping joint rotations near the frame's start pose.
     pub prior_weight: f64,
+    /// The prior also holds each free joint below a moving joint (a hip node or an IK goal
+    /// that a clip translates), its translation as well as its rotation: where the data
+    /// does not pin such a joint it would wander from frame to frame. The first-frame
+    /// search turns it off (the rest pose is no place to hold those joints near).
+    pub hold_free_joints: bool,
     /// Weight of the soft joint limits: each limited joint's rotation excess over its
     /// limits (radians, relative to rest) squared, as the skeleton's `limits` give them.
     pub limit_weight: f64,
@@ -97,6 +102,7 @@ impl Default for TrackOptions {
             prediction: 0.5,
             coarse_to_fine: true,
             prior_weight: 0.02,
+            hold_free_joints: true,
             limit_weight: 1.0,
             model_points: 0,
             visible_only: true,
