@@ -28,6 +28,8 @@ pub use interrupt::Interrupt;
 pub use kinematics::{DofLayout, ForwardKinematics};
 pub use math::{Matrix3, Matrix4, Point3, Quat, Real, Trs, Vector3};
 pub use rig::Rig;
-pub use skeleton::{Joint, JointDof, JointKind, JointLimits, Pose, Skeleton, SkeletonError};
+pub use skeleton::{
+    Joint, JointDof, JointKind, JointLimits, JointTie, Pose, Skeleton, SkeletonError,
+};
 pub use skinning::SkinnedMesh;
 pub use strokes::Stroke;

@@ -3,7 +3,7 @@
 use crate::animation::{Animation, ChannelTarget};
 use crate::geometry::{Aabb, TriMesh};
 use crate::math::{Point3, Vector3};
-use crate::skeleton::{JointDof, JointKind, Pose, Skeleton};
+use crate::skeleton::{JointDof, JointKind, JointTie, Pose, Skeleton};
 
 /// A box whose y side is under this share of its z side is taken to be z-up.
 const Z_UP_RATIO: f64 = 0.6;
@@ -11,6 +11,13 @@ const Z_UP_RATIO: f64 = 0.6;
 /// An animated translation further than this share of the height from the joint's rest
 /// translation moves the joint.
 const TRANSLATION_TOLERANCE: f64 = 1e-4;
+
+/// A translating joint is tied to another joint when, over the rest pose and its clips, its
+/// origin strays at most this share of the height from one place in that joint's frame.
+const TIE_TOLERANCE: f64 = 2e-3;
+
+/// Each clip is sampled at this many evenly spaced times when looking for ties.
+const TIE_SAMPLES: usize = 32;
 
 /// A leaf joint gets a tip from its skin when the vertices it dominates lie to one side of
 /// it: their centroid at least this share of their farthest distance from the joint.
@@ -127,6 +134,97 @@ impl Rig {
             }
         }
         freed
+    }
+
+    /// Ties each free joint that carries joints of its own and whose clips translate it (an
+    /// IK goal with a hand below it) to the joint its clips keep it at: over the rest pose
+    /// and every clip, its origin stays at one place in that joint's frame (within
+    /// [`TIE_TOLERANCE`] of the height), the joint neither above nor below it. mrfixit's
+    /// hands hang from IK goals that the clips move with the ends of its arms; nothing in
+    /// the skeleton says so, and tracked without the tie the hands float free of the arms.
+    /// Among joints that qualify, the nearest wins. Call after
+    /// [`Rig::free_translating_joints`] (readers do). Returns how many joints were tied.
+    pub fn tie_goals(&mut self) -> usize {
+        let skeleton = &self.skeleton;
+        let n = skeleton.len();
+        let tolerance = TIE_TOLERANCE * self.height().max(1e-12);
+        let mut translated = vec![false; n];
+        for channel in self.animations.iter().flat_map(|a| &a.channels) {
+            if channel.target == ChannelTarget::Translation && channel.joint < n {
+                translated[channel.joint] = true;
+            }
+        }
+        let goals: Vec<usize> = (0..n)
+            .filter(|&j| {
+                let joint = skeleton.joint(j);
+                joint.dof == JointDof::Free
+                    && joint.parent.is_some()
+                    && translated[j]
+                    && !skeleton.children(j).is_empty()
+            })
+            .collect();
+        if goals.is_empty() {
+            return 0;
+        }
+        // The world transforms of the rest pose and of every clip's samples.
+        let rest = skeleton.rest_pose();
+        let mut worlds = vec![skeleton.world_matrices(&rest)];
+        for clip in &self.animations {
+            let (start, duration) = (clip.start(), clip.duration());
+            for k in 0..TIE_SAMPLES {
+                let t = start + duration * k as f64 / (TIE_SAMPLES - 1) as f64;
+                worlds.push(skeleton.world_matrices(&clip.sample(&rest, t)));
+            }
+        }
+        let origin = |m: &crate::math::Matrix4| Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]);
+        let mut ties = Vec::new();
+        for &goal in &goals {
+            let mut best: Option<(f64, JointTie)> = None;
+            for to in 0..n {
+                if skeleton.is_ancestor_or_self(goal, to) || skeleton.is_ancestor_or_self(to, goal)
+                {
+                    continue;
+                }
+                // The goal's origin in `to`'s frame, sample by sample.
+                let places: Vec<Vector3> = worlds
+                    .iter()
+                    .filter_map(|w| {
+                        let inverse = w[to].try_inverse()?;
+                        Some(
+                            crate::math::transform_point(&inverse, &origin(&w[goal]).into()).coords,
+                        )
+                    })
+                    .collect();
+                if places.len() != worlds.len() {
+                    continue;
+                }
+                let offset = places.iter().sum::<Vector3>() / places.len() as f64;
+                // Measured in the world (the frame may scale).
+                let strays = worlds.iter().zip(&places).any(|(w, p)| {
+                    let linear = w[to].fixed_view::<3, 3>(0, 0).into_owned();
+                    (linear * (p - offset)).norm() > tolerance
+                });
+                if strays {
+                    continue;
+                }
+                let distance = (origin(&worlds[0][goal]) - origin(&worlds[0][to])).norm();
+                if best.as_ref().is_none_or(|(d, _)| distance < *d) {
+                    best = Some((distance, JointTie { to, offset }));
+                }
+            }
+            // Two goals the clips move together are tied once (the later to the earlier).
+            if let Some((_, tie)) = best
+                && !ties
+                    .iter()
+                    .any(|&(g, t): &(usize, JointTie)| g == tie.to && t.to == goal)
+            {
+                ties.push((goal, tie));
+            }
+        }
+        for &(goal, tie) in &ties {
+            self.skeleton.set_tie(goal, Some(tie));
+        }
+        ties.len()
     }
 
     /// Gives every leaf skin joint whose skin hangs to one side of it (a limb box of a
@@ -350,5 +448,81 @@ mod tests {
         rig.animations[0].channels.push(held);
         assert_eq!(rig.free_translating_joints(), 0, "only the hip moves");
         assert_ne!(rig.skeleton.joint(2).dof, JointDof::Free, "the leg");
+    }
+
+    /// An arm whose IK goal (a joint under the body carrying the hand) the clip moves with
+    /// the arm's end: the goal is tied there; moved on its own, it is not.
+    #[test]
+    fn an_ik_goal_the_clips_keep_at_the_arms_end_is_tied_there() {
+        let at = |x: f64, y: f64| Trs::from_translation(Vector3::new(x, y, 0.0));
+        let joints = vec![
+            Joint::new("Body", None, at(0.0, 1.0)),
+            Joint::new("Arm", Some(0), at(0.2, 0.0)),
+            Joint::new("Fore", Some(1), at(0.5, 0.0)),
+            Joint::new("Wrist", Some(2), at(0.5, 0.0)),
+            Joint::new("Goal", Some(0), at(1.2, 0.0)),
+            Joint::new("Finger", Some(4), at(0.1, 0.0)),
+        ];
+        let mut skeleton = Skeleton::new(joints).expect("a tree");
+        skeleton.set_default_dofs();
+        let pose = skeleton.rest_pose();
+        // The arm turns 0.8 rad about z; the goal follows the wrist (or, `apart`, rises).
+        let clip = |apart: bool| {
+            let times: Vec<f64> = (0..=16).map(|k| k as f64 / 16.0).collect();
+            let angle = |t: f64| 0.8 * t;
+            let turn = AnimationChannel {
+                joint: 1,
+                target: ChannelTarget::Rotation,
+                interpolation: Interpolation::Linear,
+                times: times.clone(),
+                values: times
+                    .iter()
+                    .map(|&t| {
+                        let q = crate::math::Quat::from_axis_angle(&Vector3::z_axis(), angle(t));
+                        crate::animation::quat_to_xyzw(&q)
+                    })
+                    .collect(),
+            };
+            let goal = AnimationChannel {
+                joint: 4,
+                target: ChannelTarget::Translation,
+                interpolation: Interpolation::Linear,
+                times: times.clone(),
+                values: times
+                    .iter()
+                    .map(|&t| {
+                        if apart {
+                            [1.2, 0.5 * t, 0.0, 0.0]
+                        } else {
+                            [0.2 + angle(t).cos(), angle(t).sin(), 0.0, 0.0]
+                        }
+                    })
+                    .collect(),
+            };
+            Animation {
+                name: "reach".into(),
+                channels: vec![turn, goal],
+                frame_time: None,
+            }
+        };
+        for apart in [false, true] {
+            let mut rig = Rig {
+                skeleton: skeleton.clone(),
+                pose: pose.clone(),
+                meshes: Vec::new(),
+                animations: vec![clip(apart)],
+            };
+            assert_eq!(rig.free_translating_joints(), 1, "the goal translates");
+            let tied = rig.tie_goals();
+            let tie = rig.skeleton.joint(4).tie;
+            if apart {
+                assert_eq!((tied, tie), (0, None));
+            } else {
+                assert_eq!(tied, 1);
+                let tie = tie.expect("tied");
+                assert_eq!(tie.to, 3, "to the wrist, the nearest joint that keeps it");
+                assert!(tie.offset.norm() < 1e-3, "{:?}", tie.offset);
+            }
+        }
     }
 }

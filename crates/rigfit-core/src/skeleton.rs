@@ -75,6 +75,16 @@ pub struct Joint {
     /// For a joint that translates: the box its local translation keeps to (the rig's
     /// units; from a joints file's `translation`), soft in tracking's M-step.
     pub translation_limits: Option<JointLimits>,
+    /// For a free joint the rig's clips keep at one place in another joint's frame (an IK
+    /// goal at the end of its arm, [`crate::Rig::tie_goals`]): that place, held in tracking.
+    pub tie: Option<JointTie>,
+}
+
+/// Where a joint's origin stays: at `offset` (the rig's units) in joint `to`'s frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JointTie {
+    pub to: usize,
+    pub offset: Vector3,
 }
 
 impl Joint {
@@ -88,6 +98,7 @@ impl Joint {
             dof: JointDof::Ball,
             limits: None,
             translation_limits: None,
+            tie: None,
         }
     }
 }
@@ -215,6 +226,11 @@ impl Skeleton {
     /// Sets joint `index`'s translation box (see [`Joint::translation_limits`]).
     pub fn set_translation_limits(&mut self, index: usize, limits: Option<JointLimits>) {
         self.joints[index].translation_limits = limits;
+    }
+
+    /// Sets joint `index`'s tie (see [`Joint::tie`]).
+    pub fn set_tie(&mut self, index: usize, tie: Option<JointTie>) {
+        self.joints[index].tie = tie;
     }
 
     pub fn len(&self) -> usize {

@@ -1,6 +1,6 @@
 //! Tracking a take from the rig's rest or bind pose with the body anywhere and turned any
-//! way (issue 23), on a sample of what `examples/track_corpus` sweeps: one suite and three
-//! held-out corpus rigs, each moved by one seed's rigid motion. Bounds: mean joint error
+//! way (issue 23), on a sample of what `examples/track_corpus` sweeps: one suite, four
+//! held-out corpus rigs and one of the tune half, each moved by one seed's rigid motion. Bounds: mean joint error
 //! below 3% of the height from frame 5 on and no frame above 10%. The whole corpus's figures
 //! (the bar is 95% of sequences; not met yet) are in BENCHMARKS.md.
 
@@ -39,7 +39,7 @@ fn a_held_out_mocap_skeleton_is_found_and_tracked_from_its_rest_pose() {
     corpus_take_within_bounds("assimp-boxing_toes", 0);
 }
 
-/// A held-out corpus rig (`id`) moved by `seed`'s rigid motion, tracked from its rest pose
+/// A corpus rig (`id`) moved by `seed`'s rigid motion, tracked from its rest pose
 /// within the bounds; the take's outcome.
 fn corpus_take_within_bounds(id: &str, seed: u64) -> TakeOutcome {
     let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
@@ -61,6 +61,14 @@ fn a_held_out_quadruped_with_a_long_tail_is_found_and_tracked_from_its_rest_pose
 fn a_held_out_skeleton_with_fingers_is_found_and_tracked_from_its_rest_pose() {
     // 1.96% from frame 5 when measured: its fingers' model points lie on its fingers.
     corpus_take_within_bounds("bvhtoolbox-freebvh", 0);
+}
+
+#[test]
+fn a_creature_whose_hands_hang_from_ik_goals_is_found_and_tracked_from_its_rest_pose() {
+    // mrfixit (tune half): its hands hang from IK goals tied to the ends of its arms (the
+    // arms swing down from the rest pose and carry the hands along). 2.53% from frame 5
+    // when measured (6.44% untied).
+    corpus_take_within_bounds("assimp-mrfixit", 1);
 }
 
 #[test]

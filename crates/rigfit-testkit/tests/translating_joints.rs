@@ -40,6 +40,13 @@ fn animated_translations_become_translation_dofs() {
     let s = &mrfixit.rig.skeleton;
     let dof = |name: &str| s.joint(s.find(name).expect("joint")).dof;
     assert_eq!(dof("ElbowRot.L"), JointDof::Free);
+    // Its hands hang from IK goals (ArmIK.*, skin joints under the spine) that its clip
+    // keeps at the ends of its arms: each is tied there.
+    for side in ["L", "R"] {
+        let goal = s.find(&format!("ArmIK.{side}")).expect("goal");
+        let tie = s.joint(goal).tie.expect("tied");
+        assert_eq!(s.joint(tie.to).name, format!("Hand.{side}"));
+    }
     // A BVH without position channels below its root keeps ball joints.
     let cmu = corpus_rig("cmu-01_01");
     let s = &cmu.rig.skeleton;
@@ -139,9 +146,9 @@ fn a_marker_rig_is_tracked_by_its_markers_translations() {
 fn inner_joints_a_clip_translates_do_not_wander_while_tracked() {
     // mrfixit (tune half): its hands hang from IK goals its clip translates, under the
     // spine. From the first frame's truth, the prior holds them where each frame starts
-    // where the data does not pin them: 1.06-1.25% from frame 5 over seeds 0-2 when
-    // measured, 2.8-4.1% before (`FROM_TRUTH=1 RIGS=assimp-mrfixit` in
-    // examples/track_corpus, BENCHMARKS.md).
+    // where the data does not pin them, and their ties keep them at the ends of the arms:
+    // 0.82-0.88% from frame 5 over seeds 0-2 when measured, 2.8-4.1% with neither
+    // (`FROM_TRUTH=1 RIGS=assimp-mrfixit` in examples/track_corpus, BENCHMARKS.md).
     use rigfit_testkit::track_corpus::{TakeSettings, corpus_sequence, track_sequence};
     let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
     let sequence = corpus_sequence(&corpus, "assimp-mrfixit", 0, &SequenceOptions::default())

@@ -7,7 +7,7 @@ use crate::engine::{NormalSink, SkeletonNormalEquations, SubtreeMoments};
 use crate::joint_model::{limit_residuals, translation_limit_residuals};
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Point3, Vector3};
-use crate::skeleton::{JointDof, Pose, Skeleton};
+use crate::skeleton::{JointDof, JointTie, Pose, Skeleton};
 
 /// A point pulled toward a target with a weight.
 #[derive(Clone, Copy, Debug)]
@@ -16,6 +16,11 @@ pub(super) struct Pull {
     pub(super) target: Point3,
     pub(super) weight: f64,
 }
+
+/// Weight of a tied joint's squared distance from its place ([`crate::skeleton::JointTie`],
+/// heights) against the pulls' total weight: a tie counts as much as every point off by
+/// the same distance.
+const TIE_WEIGHT: f64 = 1.0;
 
 /// Texture points blended with weights in this range get their exact Jacobian (eq. 3);
 /// outside it, the dominant joint's (an error of at most 5% in the other's columns).
@@ -57,6 +62,12 @@ impl Tracker {
         };
         let limits = self.options.limit_weight;
         let layout = &self.layout;
+        let ties = Ties::new(
+            layout,
+            skeleton,
+            TIE_WEIGHT * pulls.iter().map(|p| p.weight).sum::<f64>(),
+        );
+        ne.set_allow_tree(ties.is_empty());
         let objective = |pose: &Pose,
                          fk: &ForwardKinematics,
                          ne: Option<(&mut SubtreeMoments, &mut SkeletonNormalEquations)>|
@@ -92,7 +103,9 @@ impl Tracker {
                     }
                     // Blended points need the tree or dense form for their Jacobian, the
                     // weighted sum of both parts' (exact, not summarised by moments).
-                    ne.set_allow_articulated(blended.is_empty() && split.is_empty());
+                    ne.set_allow_articulated(
+                        blended.is_empty() && split.is_empty() && ties.is_empty(),
+                    );
                     ne.assemble_points(moments, fk, inv_h);
                     let mut cols: Vec<(usize, Vector3)> = Vec::new();
                     for (pull, r) in blended {
@@ -117,6 +130,10 @@ impl Tracker {
                             }
                         }
                     }
+                    // The ties: each tied joint at its place in the other's frame.
+                    ties.each(layout, fk, inv_h, &mut cols, |r, w, c| {
+                        ne.add_point_columns(r, w, c)
+                    });
                     rotation_prior(
                         layout,
                         &held,
@@ -147,6 +164,10 @@ impl Tracker {
                         let r = (pull.point.world(fk) - pull.target) * inv_h;
                         cost += pull.weight * r.norm_squared();
                     }
+                    let mut cols = Vec::new();
+                    ties.each(layout, fk, inv_h, &mut cols, |r, w, _| {
+                        cost += w * r.norm_squared()
+                    });
                     rotation_prior(
                         layout,
                         &held,
@@ -203,6 +224,63 @@ impl Tracker {
             }
         }
         self.normal = Some(ne);
+    }
+}
+
+/// The tied joints that move ([`crate::skeleton::JointTie`]): each held at its place in the
+/// other joint's frame with `weight`.
+struct Ties {
+    /// (the tied joint, its tie, the deepest joint above both).
+    ties: Vec<(usize, JointTie, Option<usize>)>,
+    weight: f64,
+}
+
+impl Ties {
+    fn new(layout: &DofLayout, skeleton: &Skeleton, weight: f64) -> Self {
+        let ties = (0..layout.joint_count())
+            .filter(|&j| layout.offset(j).is_some() && layout.dof(j) == JointDof::Free)
+            .filter_map(|j| {
+                let tie = skeleton.joint(j).tie?;
+                let mut above = skeleton.joint(j).parent;
+                while let Some(a) = above {
+                    if skeleton.is_ancestor_or_self(a, tie.to) {
+                        break;
+                    }
+                    above = skeleton.joint(a).parent;
+                }
+                Some((j, tie, above))
+            })
+            .collect();
+        Self { ties, weight }
+    }
+
+    fn is_empty(&self) -> bool {
+        self.ties.is_empty()
+    }
+
+    /// Hands each tie's residual (the joint's origin minus its place, heights, `inv_h` one
+    /// over the height), weight and Jacobian columns (written in `cols`) to `add`. The
+    /// columns are those of the joints below the deepest one above both ends (the joints
+    /// above move both ends alike).
+    fn each(
+        &self,
+        layout: &DofLayout,
+        fk: &ForwardKinematics,
+        inv_h: f64,
+        cols: &mut Vec<(usize, Vector3)>,
+        mut add: impl FnMut(&Vector3, f64, &[(usize, Vector3)]),
+    ) {
+        for &(joint, tie, above) in &self.ties {
+            let at = fk.position(joint);
+            let place = fk.point(tie.to, &tie.offset.into());
+            let r = (at - place) * inv_h;
+            cols.clear();
+            fk.point_jacobian_below(layout, joint, above, &at, |i, v| cols.push((i, v * inv_h)));
+            fk.point_jacobian_below(layout, tie.to, above, &place, |i, v| {
+                cols.push((i, -v * inv_h))
+            });
+            add(&r, self.weight, cols);
+        }
     }
 }
 

@@ -177,6 +177,7 @@ impl BvhDocument {
             animations,
         };
         rig.free_translating_joints();
+        rig.tie_goals();
         rig
     }
 

@@ -177,5 +177,6 @@ pub(super) fn build_rig(
         animations,
     };
     rig.free_translating_joints();
+    rig.tie_goals();
     Ok((rig, joint_nodes))
 }

@@ -21,6 +21,9 @@ pub struct SkeletonNormalEquations {
     explicit: Option<Explicit>,
     articulated: ArticulatedNormalEquations,
     allow_articulated: bool,
+    /// Whether the tree form may hold the entries (terms that join two branches, such as
+    /// a tie between a hand and its IK goal, need the dense form).
+    allow_tree: bool,
     use_articulated: bool,
 }
 
@@ -40,6 +43,7 @@ impl SkeletonNormalEquations {
             explicit: None,
             articulated: ArticulatedNormalEquations::new(),
             allow_articulated: true,
+            allow_tree: true,
             use_articulated: false,
         }
     }
@@ -67,8 +71,12 @@ impl SkeletonNormalEquations {
     /// The entry-by-entry form, made (cleared) when first needed.
     fn explicit(&mut self) -> &mut Explicit {
         let (layout, parents) = (&self.layout, &self.parents);
+        let allow_tree = self.allow_tree;
         self.explicit.get_or_insert_with(|| {
-            match TreeNormalEquations::new(layout, |j| parents[j]) {
+            match allow_tree
+                .then(|| TreeNormalEquations::new(layout, |j| parents[j]))
+                .flatten()
+            {
                 Some(tree) => Explicit::Tree(tree),
                 None => Explicit::Dense(NormalEquations::new(layout.len()), Vec::new()),
             }
@@ -83,6 +91,15 @@ impl SkeletonNormalEquations {
     /// Allows or forbids the articulated form (allowed by default).
     pub fn set_allow_articulated(&mut self, allow: bool) {
         self.allow_articulated = allow;
+    }
+
+    /// Allows or forbids the tree form (allowed by default); forbidden, the entries are
+    /// stored densely, so that any two parameters may be coupled.
+    pub fn set_allow_tree(&mut self, allow: bool) {
+        if self.allow_tree != allow {
+            self.allow_tree = allow;
+            self.explicit = None;
+        }
     }
 
     /// Clears the sums for a new iteration.
