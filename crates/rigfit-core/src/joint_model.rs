@@ -4,12 +4,14 @@
 //! hand of Dewaele et al. are), and every joint the clips turn gets the range they show,
 //! widened by a margin. A joints file (read by `rigfit-formats`) may give or override the
 //! model joint by joint. Posing keeps every joint's DOF unless a joints file says otherwise
-//! and uses limits only to choose among poses that explain the strokes alike.
+//! and uses limits only to choose among poses that explain the strokes alike. Joints the
+//! clips tie to another joint (an IK goal at the end of an arm, [`crate::Rig::tie_goals`])
+//! are held there by the tracker ([`Ties`]).
 
 use crate::animation::{Animation, ChannelTarget, Interpolation, quat_from_xyzw};
-use crate::kinematics::DofLayout;
+use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Matrix3, Vector3};
-use crate::skeleton::{JointDof, JointKind, JointLimits, Pose, Skeleton};
+use crate::skeleton::{JointDof, JointKind, JointLimits, JointTie, Pose, Skeleton};
 
 /// What one joint may do: its degrees of freedom and the limits of its rotation, and for a
 /// joint that translates, the box its translation keeps to (from its rest translation, the
@@ -316,6 +318,68 @@ pub fn joint_limit_residuals(
         JointDof::Fixed => (o, 0),
     };
     (0..axes).for_each(|a| add(excess[a], weight, rotation + a));
+}
+
+/// The tied joints that move ([`crate::skeleton::JointTie`]): each held at its place in the
+/// other joint's frame with `weight`.
+pub(crate) struct Ties {
+    /// (the tied joint, its tie, the deepest joint above both).
+    ties: Vec<(usize, JointTie, Option<usize>)>,
+    weight: f64,
+}
+
+impl Ties {
+    /// Weight of a tied joint's squared distance from its place (heights) against the
+    /// total weight of a solver's pulls: a tie counts as much as every point off by the
+    /// same distance.
+    pub(crate) const WEIGHT: f64 = 1.0;
+
+    pub(crate) fn new(layout: &DofLayout, skeleton: &Skeleton, weight: f64) -> Self {
+        let ties = (0..layout.joint_count())
+            .filter(|&j| layout.offset(j).is_some() && layout.dof(j) == JointDof::Free)
+            .filter_map(|j| {
+                let tie = skeleton.joint(j).tie?;
+                let mut above = skeleton.joint(j).parent;
+                while let Some(a) = above {
+                    if skeleton.is_ancestor_or_self(a, tie.to) {
+                        break;
+                    }
+                    above = skeleton.joint(a).parent;
+                }
+                Some((j, tie, above))
+            })
+            .collect();
+        Self { ties, weight }
+    }
+
+    pub(crate) fn is_empty(&self) -> bool {
+        self.ties.is_empty()
+    }
+
+    /// Hands each tie's residual (the joint's origin minus its place, heights, `inv_h` one
+    /// over the height), weight and Jacobian columns (written in `cols`) to `add`. The
+    /// columns are those of the joints below the deepest one above both ends (the joints
+    /// above move both ends alike).
+    pub(crate) fn each(
+        &self,
+        layout: &DofLayout,
+        fk: &ForwardKinematics,
+        inv_h: f64,
+        cols: &mut Vec<(usize, Vector3)>,
+        mut add: impl FnMut(&Vector3, f64, &[(usize, Vector3)]),
+    ) {
+        for &(joint, tie, above) in &self.ties {
+            let at = fk.position(joint);
+            let place = fk.point(tie.to, &tie.offset.into());
+            let r = (at - place) * inv_h;
+            cols.clear();
+            fk.point_jacobian_below(layout, joint, above, &at, |i, v| cols.push((i, v * inv_h)));
+            fk.point_jacobian_below(layout, tie.to, above, &place, |i, v| {
+                cols.push((i, -v * inv_h))
+            });
+            add(&r, self.weight, cols);
+        }
+    }
 }
 
 #[cfg(test)]

@@ -4,10 +4,10 @@
 use super::Tracker;
 use super::texture::TexturePoint;
 use crate::engine::{NormalSink, SkeletonNormalEquations, SubtreeMoments};
-use crate::joint_model::{limit_residuals, translation_limit_residuals};
+use crate::joint_model::{Ties, limit_residuals, translation_limit_residuals};
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Point3, Vector3};
-use crate::skeleton::{JointDof, JointTie, Pose, Skeleton};
+use crate::skeleton::{JointDof, Pose, Skeleton};
 
 /// A point pulled toward a target with a weight.
 #[derive(Clone, Copy, Debug)]
@@ -16,11 +16,6 @@ pub(super) struct Pull {
     pub(super) target: Point3,
     pub(super) weight: f64,
 }
-
-/// Weight of a tied joint's squared distance from its place ([`crate::skeleton::JointTie`],
-/// heights) against the pulls' total weight: a tie counts as much as every point off by
-/// the same distance.
-const TIE_WEIGHT: f64 = 1.0;
 
 /// Texture points blended with weights in this range get their exact Jacobian (eq. 3);
 /// outside it, the dominant joint's (an error of at most 5% in the other's columns).
@@ -65,7 +60,7 @@ impl Tracker {
         let ties = Ties::new(
             layout,
             skeleton,
-            TIE_WEIGHT * pulls.iter().map(|p| p.weight).sum::<f64>(),
+            Ties::WEIGHT * pulls.iter().map(|p| p.weight).sum::<f64>(),
         );
         ne.set_allow_tree(ties.is_empty());
         let objective = |pose: &Pose,
@@ -224,63 +219,6 @@ impl Tracker {
             }
         }
         self.normal = Some(ne);
-    }
-}
-
-/// The tied joints that move ([`crate::skeleton::JointTie`]): each held at its place in the
-/// other joint's frame with `weight`.
-struct Ties {
-    /// (the tied joint, its tie, the deepest joint above both).
-    ties: Vec<(usize, JointTie, Option<usize>)>,
-    weight: f64,
-}
-
-impl Ties {
-    fn new(layout: &DofLayout, skeleton: &Skeleton, weight: f64) -> Self {
-        let ties = (0..layout.joint_count())
-            .filter(|&j| layout.offset(j).is_some() && layout.dof(j) == JointDof::Free)
-            .filter_map(|j| {
-                let tie = skeleton.joint(j).tie?;
-                let mut above = skeleton.joint(j).parent;
-                while let Some(a) = above {
-                    if skeleton.is_ancestor_or_self(a, tie.to) {
-                        break;
-                    }
-                    above = skeleton.joint(a).parent;
-                }
-                Some((j, tie, above))
-            })
-            .collect();
-        Self { ties, weight }
-    }
-
-    fn is_empty(&self) -> bool {
-        self.ties.is_empty()
-    }
-
-    /// Hands each tie's residual (the joint's origin minus its place, heights, `inv_h` one
-    /// over the height), weight and Jacobian columns (written in `cols`) to `add`. The
-    /// columns are those of the joints below the deepest one above both ends (the joints
-    /// above move both ends alike).
-    fn each(
-        &self,
-        layout: &DofLayout,
-        fk: &ForwardKinematics,
-        inv_h: f64,
-        cols: &mut Vec<(usize, Vector3)>,
-        mut add: impl FnMut(&Vector3, f64, &[(usize, Vector3)]),
-    ) {
-        for &(joint, tie, above) in &self.ties {
-            let at = fk.position(joint);
-            let place = fk.point(tie.to, &tie.offset.into());
-            let r = (at - place) * inv_h;
-            cols.clear();
-            fk.point_jacobian_below(layout, joint, above, &at, |i, v| cols.push((i, v * inv_h)));
-            fk.point_jacobian_below(layout, tie.to, above, &place, |i, v| {
-                cols.push((i, -v * inv_h))
-            });
-            add(&r, self.weight, cols);
-        }
     }
 }
 
