@@ -147,7 +147,7 @@ fn inner_joints_a_clip_translates_do_not_wander_while_tracked() {
     // mrfixit (tune half): its hands hang from IK goals its clip translates, under the
     // spine. From the first frame's truth, the prior holds them where each frame starts
     // where the data does not pin them, and their ties keep them at the ends of the arms:
-    // 0.82-0.88% from frame 5 over seeds 0-2 when measured, 2.8-4.1% with neither
+    // 0.97-1.01% from frame 5 over seeds 0-2 when measured, 2.8-4.1% with neither
     // (`FROM_TRUTH=1 RIGS=assimp-mrfixit` in examples/track_corpus, BENCHMARKS.md).
     use rigfit_testkit::track_corpus::{TakeSettings, corpus_sequence, track_sequence};
     let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));

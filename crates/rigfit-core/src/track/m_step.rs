@@ -223,9 +223,10 @@ impl Tracker {
 }
 
 /// `Phi`: each rotating joint's rotation vector away from `start`, per axis, handed to
-/// `add(residual, weight, column, derivative)`; and each of the `held` free joints
-/// ([`held_free_joints`]) held the same way, its rotation and its translation (in heights,
-/// `inv_h` one over the height).
+/// `add(residual, weight, column, derivative)`; and each of the `held` free joints'
+/// ([`held_free_joints`]) translation away from `start` (in heights, `inv_h` one over the
+/// height). A free joint's rotation, like the root's, moves with the data alone (holding it
+/// too was measured worse on both halves: BENCHMARKS.md).
 fn rotation_prior(
     layout: &DofLayout,
     held: &[bool],
@@ -247,17 +248,17 @@ fn rotation_prior(
             JointDof::Free if held.get(j).copied().unwrap_or(false) => {
                 let moved = pose.local[j].translation - start.local[j].translation;
                 (0..3).for_each(|a| add(moved[a] * inv_h, weight, o + a, inv_h));
-                (0..3).for_each(|a| add(delta[a], weight, o + 3 + a, 1.0));
             }
             _ => {}
         }
     }
 }
 
-/// The free joints the prior holds ([`super::TrackOptions::hold_free_joints`]): those below
-/// a moving joint that carry joints of their own (a hip node or an IK goal a clip
-/// translates, with a leg or a hand below it). Where the data does not pin such a joint (a
-/// limb sliding along itself) it would wander from frame to frame. The topmost free joints
+/// The free joints whose translation the prior holds
+/// ([`super::TrackOptions::hold_free_joints`]): those below a moving joint that carry joints
+/// of their own (a hip node or an IK goal a clip translates, with a leg or a hand below it).
+/// Where the data does not pin such a joint's place (a limb sliding along itself) it would
+/// wander from frame to frame. The topmost free joints
 /// (the body's root) and free leaves (a marker, pinned by its own points) move with the
 /// data alone.
 fn held_free_joints(layout: &DofLayout, skeleton: &Skeleton) -> Vec<bool> {

@@ -41,9 +41,9 @@ pub struct TrackOptions {
     pub coarse_to_fine: bool,
     /// Weight of the prior keeping joint rotations near the frame's start pose.
     pub prior_weight: f64,
-    /// The prior also holds each free joint below a moving joint (a hip node or an IK goal
-    /// that a clip translates), its translation as well as its rotation: where the data
-    /// does not pin such a joint it would wander from frame to frame. The first-frame
+    /// The prior also holds the translation of each free joint below a moving joint that
+    /// carries joints (a hip node or an IK goal that a clip translates): where the data
+    /// does not pin such a joint's place it would wander from frame to frame. The first-frame
     /// search turns it off (the rest pose is no place to hold those joints near).
     pub hold_free_joints: bool,
     /// Weight of the soft joint limits: each limited joint's rotation excess over its
