@@ -18,7 +18,8 @@
 //! `TANGENTIAL=x`, `PRIOR=x`, `MAX_MOTION=x`, `ANNEAL_STEPS=n`, `LIMIT_WEIGHT=x`, `PREDICTION=x`, `FINAL_ITERATIONS=n`, `NOISE=x`, `EXPONENT=x`,
 //! `RELAXATION=x` and `POINT_TO_PLANE=0`, `HOLD_FREE=0` (hold_free_joints) set the tracker's options of those names,
 //! `SWINGS=1` turns on the first-frame search's limb swings, and `FULL_PASSES=n`,
-//! `REFINE_SIGMA=x`, `REFINE_STEPS=n` and `FULL_PRIOR=x` set its options). The corpus is
+//! `REFINE_SIGMA=x`, `REFINE_STEPS=n`, `FULL_PRIOR=x`, `KEEP=n`, `LAID_KEPT=n` and
+//! `HEADINGS=n` set its options). The corpus is
 //! `RIGFIT_CORPUS` over `data/corpus.json`; the suites' assets are `RIGFIT_DATA`.
 
 #[path = "common/env_knobs.rs"]
@@ -82,6 +83,9 @@ fn settings() -> TakeSettings {
     env_knobs::set("REFINE_SIGMA", &mut take.search.refine_sigma);
     env_knobs::set_count("REFINE_STEPS", &mut take.search.refine_steps);
     env_knobs::set("FULL_PRIOR", &mut take.search.full_prior_weight);
+    env_knobs::set_count("KEEP", &mut take.search.keep);
+    env_knobs::set_count("LAID_KEPT", &mut take.search.laid_kept);
+    env_knobs::set_count("HEADINGS", &mut take.search.headings);
     TakeSettings {
         track,
         take,
