@@ -16,7 +16,7 @@
 //! stderr, `VERBOSE=2` also the true motion's steps and every joint's mean error,
 //! `FROM_TRUTH=1` tracks from the first frame's true pose instead (the tracker's own error),
 //! `TANGENTIAL=x`, `PRIOR=x`, `MAX_MOTION=x`, `ANNEAL_STEPS=n`, `LIMIT_WEIGHT=x`, `PREDICTION=x`, `FINAL_ITERATIONS=n`, `NOISE=x`, `EXPONENT=x`,
-//! `RELAXATION=x` and `POINT_TO_PLANE=0`, `HOLD_FREE=0` (hold_free_joints) set the tracker's options of those names,
+//! `RELAXATION=x` and `POINT_TO_PLANE=0`, `HOLD_FREE=0` (hold_free_joints), `VISIBLE_ONLY=0` set the tracker's options of those names,
 //! `SWINGS=1` turns on the first-frame search's limb swings, and `FULL_PASSES=n`,
 //! `REFINE_SIGMA=x`, `REFINE_STEPS=n`, `FULL_PRIOR=x`, `KEEP=n`, `LAID_KEPT=n` and
 //! `HEADINGS=n` set its options). The corpus is
@@ -71,6 +71,9 @@ fn settings() -> TakeSettings {
     env_knobs::set("RELAXATION", &mut track.over_relaxation);
     if let Some(v) = env_knobs::number("POINT_TO_PLANE") {
         track.point_to_plane = v != 0.0;
+    }
+    if let Some(v) = env_knobs::number("VISIBLE_ONLY") {
+        track.visible_only = v != 0.0;
     }
     if let Some(v) = env_knobs::number("HOLD_FREE") {
         track.hold_free_joints = v != 0.0;
