@@ -7,7 +7,7 @@
 //! A corpus rig's sequence ([`corpus_sequence`]): the rig read as the corpus reads it, its
 //! start pose stored, the joint model `rigfit track` uses ([`tracked_rig`]); 60 frames at
 //! 30 fps of its own clip ([`clip_motion`]: its longest stretch without a jump) or, without
-//! a clip, a smooth synthetic motion ([`synthetic_motion`]: every joint slerped from the
+//! a clip, a smooth synthetic motion ([`synthetic_motion`]: every joint turned from the
 //! start pose through three random far poses while the body travels and turns). Points are
 //! drawn by [`make_sequence`] with the rig stood upright (its up axis turned onto y, where
 //! `make_sequence` puts its floor and lifts its cameras; a flat rig, whose height is not
@@ -39,7 +39,7 @@ use rigfit_core::track::parts::PartModel;
 use rigfit_core::track::{
     ArticulatedModel, FrameStart, Take, TakeFrame, TakeOptions, TrackOptions, Tracker,
 };
-use rigfit_core::{Pose, Quat, Rig, Vector3};
+use rigfit_core::{Pose, Quat, Rig, Trs, Vector3};
 
 use crate::corpus::{Corpus, CorpusRig};
 use crate::symmetry;
@@ -460,20 +460,21 @@ fn ease(u: f64) -> f64 {
     u * u * (3.0 - 2.0 * u)
 }
 
-/// `a` toward `b` by `u` on the shorter arc.
-fn slerp(a: &Quat, b: &Quat, u: f64) -> Quat {
-    let b = if a.coords.dot(&b.coords) < 0.0 {
-        Quat::new_unchecked(-b.into_inner())
-    } else {
-        *b
-    };
-    a.try_slerp(&b, u, 1e-12)
-        .unwrap_or(if u < 0.5 { *a } else { b })
+/// The rotation a share `u` of the way from `p`'s to `q`'s, interpolated as the joints'
+/// limits are written: the rotation vector relative to `rest` (a hinge's angle, a ball's
+/// axis times angle) moves on a straight line, so that between two keys within a joint's
+/// limits the motion stays within them. A slerp takes the short way round: between a wrist
+/// bent 2 radians one way and 2 the other it went through the half turn, 0.8 radians past
+/// the limits of Fetch's wrist, where no tracker that keeps to them can follow.
+fn within_limits(rest: &Quat, p: &Trs, q: &Trs, u: f64) -> Quat {
+    let from = (rest.inverse() * p.rotation).scaled_axis();
+    let to = (rest.inverse() * q.rotation).scaled_axis();
+    rest * Quat::from_scaled_axis(from.lerp(&to, u))
 }
 
 /// A smooth synthetic motion of `frames` frames from the rig's start pose through three
 /// random far poses (limbs up to 90 degrees, other joints up to 40, no heading), every
-/// joint slerped between them with eased timing, while the whole body travels a third of
+/// joint turned between them with eased timing ([`within_limits`]), while the whole body travels a third of
 /// its height across the up axis and turns up to 40 degrees about it.
 pub fn synthetic_motion(read: &CorpusRig, frames: usize, rng: &mut impl Rng) -> Vec<Pose> {
     synthetic_motion_through(read, frames, 3, rng)
@@ -523,7 +524,7 @@ pub fn synthetic_motion_through(
             let mut pose = keys[k].clone();
             for (j, local) in pose.local.iter_mut().enumerate() {
                 let (p, q) = (&keys[k].local[j], &keys[k + 1].local[j]);
-                local.rotation = slerp(&p.rotation, &q.rotation, u);
+                local.rotation = within_limits(&rig.skeleton.joint(j).rest.rotation, p, q, u);
                 local.translation = p.translation.lerp(&q.translation, u);
                 local.scale = p.scale.lerp(&q.scale, u);
             }

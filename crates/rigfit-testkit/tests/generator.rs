@@ -116,3 +116,36 @@ fn mirror_pairs_and_limb_roots_follow_the_rigs_names() {
     let hand = rig("webxr_hand/left.glb");
     assert!(mirror_pairs(&hand.skeleton).is_empty());
 }
+
+/// A synthetic motion keeps every limited joint within its limits between its keys: Fetch's
+/// wrist, keyed 2 radians one way and then the other, turns back through its rest, not
+/// through the half turn (a slerp's short way, 0.8 radians past its limits, was the truth
+/// that tracker lost Fetch's gripper on).
+#[test]
+fn synthetic_motions_keep_the_joints_within_their_limits() {
+    use rigfit_core::joint_model::limit_excess;
+    use rigfit_testkit::Corpus;
+    use rigfit_testkit::track_corpus::synthetic_motion;
+    let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
+    let entry = corpus.entry("gymr-fetch").expect("fetch in the corpus");
+    let read = corpus.read_rig(entry).unwrap_or_else(|e| panic!("{e}"));
+    let skeleton = &read.rig.skeleton;
+    for seed in 0..40 {
+        let mut rng = StdRng::seed_from_u64(seed);
+        for (f, pose) in synthetic_motion(&read, 60, &mut rng).iter().enumerate() {
+            for (j, joint) in skeleton.joints().iter().enumerate() {
+                let Some(limits) = &joint.limits else {
+                    continue;
+                };
+                let relative =
+                    (joint.rest.rotation.inverse() * pose.local[j].rotation).scaled_axis();
+                let excess = limit_excess(&joint.dof, limits, &relative).norm();
+                assert!(
+                    excess < 1e-6,
+                    "seed {seed} frame {f}: {} {excess:.3} rad past its limits",
+                    joint.name
+                );
+            }
+        }
+    }
+}
