@@ -522,6 +522,17 @@ mod tests {
                 let tie = tie.expect("tied");
                 assert_eq!(tie.to, 3, "to the wrist, the nearest joint that keeps it");
                 assert!(tie.offset.norm() < 1e-3, "{:?}", tie.offset);
+                // A pose with the arm turned and the goal left behind: put back at the wrist.
+                let mut turned = rig.skeleton.rest_pose();
+                turned.local[1].rotation =
+                    crate::math::Quat::from_axis_angle(&Vector3::z_axis(), 1.2);
+                rig.skeleton.apply_ties(&mut turned);
+                let at = rig.skeleton.joint_positions(&turned);
+                assert!(
+                    (at[4] - at[3]).norm() < 1e-3,
+                    "{} from the wrist",
+                    (at[4] - at[3]).norm()
+                );
             }
         }
     }

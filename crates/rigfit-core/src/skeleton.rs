@@ -392,6 +392,22 @@ impl Skeleton {
             .collect()
     }
 
+    /// Moves each tied joint ([`Joint::tie`]) of `pose` to its place, in joint order: its
+    /// local translation set so that its origin lies at its offset in the other joint's
+    /// frame (an IK goal put back at the end of its arm). Rotations are kept.
+    pub fn apply_ties(&self, pose: &mut Pose) {
+        for (j, joint) in self.joints.iter().enumerate() {
+            let Some(tie) = joint.tie else { continue };
+            let world = self.world_matrices(pose);
+            let place = crate::math::transform_point(&world[tie.to], &tie.offset.into());
+            let parent = joint
+                .parent
+                .and_then(|p| world[p].try_inverse())
+                .unwrap_or_else(Matrix4::identity);
+            pose.local[j].translation = crate::math::transform_point(&parent, &place).coords;
+        }
+    }
+
     /// A pose whose world matrices are `world` (one per joint): each local transform is
     /// `parent_world^-1 * world`, decomposed into translation, rotation and scale.
     pub fn pose_from_world(&self, world: &[Matrix4]) -> Pose {

@@ -98,6 +98,8 @@ pub fn far_pose(
     rng: &mut impl Rng,
 ) -> Pose {
     let mut pose = random_bends(skeleton, start, animations, height, options, rng);
+    // An IK goal stays at the end of its arm, as the rig's clips keep it.
+    skeleton.apply_ties(&mut pose);
     turn_heading(skeleton, &mut pose, options, rng);
     pose
 }
@@ -148,6 +150,7 @@ pub fn mirror_pose(
             .map_or_else(Quat::identity, |p| world[p]);
         pose.local[j].rotation = parent.inverse() * world[j];
     }
+    skeleton.apply_ties(&mut pose);
     turn_heading(skeleton, &mut pose, options, rng);
     Some(pose)
 }
