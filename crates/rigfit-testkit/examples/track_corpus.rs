@@ -28,25 +28,10 @@ mod env_knobs;
 use rigfit_core::track::{LimbSwingOptions, TakeOptions, TrackOptions};
 use rigfit_testkit::track_cases::SequenceOptions;
 use rigfit_testkit::track_corpus::{
-    FRAME_BOUND, FROM, MEAN_BOUND, Motion, MovedSequence, SUITES, TakeOutcome, TakeSettings,
-    corpus_sequence, suite_sequence, track_sequence,
+    CORPUS_RIGS, FRAME_BOUND, FROM, MEAN_BOUND, Motion, MovedSequence, SUITES, TakeOutcome,
+    TakeSettings, corpus_sequence, suite_sequence, track_sequence,
 };
 use rigfit_testkit::{Corpus, Half, RigKind};
-
-/// The corpus rigs measured by default: bodies, hands, quadrupeds, robots and a creature.
-const DEFAULT_RIGS: [&str; 11] = [
-    "assimp-boxing_toes",
-    "bvhtoolbox-mocapbank",
-    "bvhtoolbox-freebvh",
-    "minetest-character",
-    "gymr-shadow_hand",
-    "gymr-adroit_hand",
-    "dmc-dog",
-    "dmc-quadruped",
-    "gymr-fetch",
-    "minetest-maidroid",
-    "assimp-mrfixit",
-];
 
 fn env_usize(name: &str, default: usize) -> usize {
     std::env::var(name)
@@ -216,7 +201,7 @@ fn main() {
             .filter(|id| !SUITES.iter().any(|(n, _)| n == id))
             .cloned()
             .collect(),
-        None => DEFAULT_RIGS.iter().map(|s| s.to_string()).collect(),
+        None => CORPUS_RIGS.iter().map(|s| s.to_string()).collect(),
     };
     if let (true, Some(c)) = (everything, &corpus) {
         let suite_ids: Vec<&str> = SUITES.iter().map(|(_, id)| *id).collect();

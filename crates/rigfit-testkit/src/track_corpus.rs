@@ -62,6 +62,22 @@ pub const SUITES: [(&str, &str); 4] = [
     ("Testwuson", "assimp-testwuson"),
 ];
 
+/// The corpus rigs tracked besides the suites (three seeds each in `examples/track_corpus`
+/// and in the whole-corpus test): bodies, hands, quadrupeds, robots and a creature.
+pub const CORPUS_RIGS: [&str; 11] = [
+    "assimp-boxing_toes",
+    "bvhtoolbox-mocapbank",
+    "bvhtoolbox-freebvh",
+    "minetest-character",
+    "gymr-shadow_hand",
+    "gymr-adroit_hand",
+    "dmc-dog",
+    "dmc-quadruped",
+    "gymr-fetch",
+    "minetest-maidroid",
+    "assimp-mrfixit",
+];
+
 /// Where a sequence's motion came from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Motion {

@@ -7,8 +7,9 @@
 use rigfit_testkit::Corpus;
 use rigfit_testkit::track_cases::SequenceOptions;
 use rigfit_testkit::track_corpus::{
-    TakeOutcome, TakeSettings, corpus_sequence, suite_sequence, track_sequence,
+    CORPUS_RIGS, SUITES, TakeOutcome, TakeSettings, corpus_sequence, suite_sequence, track_sequence,
 };
+use rigfit_testkit::{Half, track_corpus::MovedSequence};
 
 fn assert_within_bounds(label: &str, outcome: &TakeOutcome) {
     assert!(
@@ -81,4 +82,47 @@ fn a_held_out_box_character_is_tracked_as_itself_or_its_symmetric_twin() {
     if outcome.twin {
         assert!(!outcome.strict_ok(), "a twin is wrong without relabelling");
     }
+}
+
+/// Sequences within the bounds over the whole corpus (the suites and [`CORPUS_RIGS`], seeds
+/// 0-2, as `examples/track_corpus` runs them), per half: 27/27 tune and 14/18 held-out when
+/// measured (41/45, 91%; issue 23's bar is 95%, not met). The floors are one sequence under
+/// each: a change must not lower them.
+#[test]
+fn the_whole_corpus_stays_above_its_measured_floor() {
+    const TUNE_FLOOR: usize = 26;
+    const HELD_OUT_FLOOR: usize = 13;
+    let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
+    let options = SequenceOptions::default();
+    let mut sequences: Vec<MovedSequence> = Vec::new();
+    for (name, _) in SUITES {
+        for seed in 0..3 {
+            sequences.push(suite_sequence(name, seed, &options, Some(&corpus)));
+        }
+    }
+    for id in CORPUS_RIGS {
+        for seed in 0..3 {
+            sequences.push(corpus_sequence(&corpus, id, seed, &options).expect("sequence"));
+        }
+    }
+    let (mut tune, mut held_out, mut failed) = (0, 0, Vec::new());
+    for sequence in &sequences {
+        let outcome = track_sequence(sequence, &TakeSettings::default()).expect("tracks");
+        let label = format!("{} seed {}", sequence.id, sequence.seed);
+        match (outcome.ok(), sequence.half) {
+            (true, Some(Half::HeldOut)) => held_out += 1,
+            (true, _) => tune += 1,
+            (false, _) => failed.push(format!("{label}: {:.2}%", 100.0 * outcome.mean_from())),
+        }
+    }
+    eprintln!(
+        "tune {tune}, held-out {held_out}; outside the bounds: {}",
+        failed.join(", ")
+    );
+    assert!(
+        tune >= TUNE_FLOOR && held_out >= HELD_OUT_FLOOR,
+        "tune {tune} (floor {TUNE_FLOOR}), held-out {held_out} (floor {HELD_OUT_FLOOR}); \
+         outside the bounds: {}",
+        failed.join(", ")
+    );
 }
