@@ -94,3 +94,13 @@ fn unwritable_output_exits_2_and_leaves_nothing() {
     let o = rigfit(&["demo-rig", "-o", "/nonexistent-dir/humanoid.glb"]);
     assert_bad_input(&o, std::path::Path::new("/nonexistent-dir/humanoid.glb"));
 }
+
+#[test]
+fn info_shows_the_ik_goals_tied_to_the_arms() {
+    // mrfixit's hands hang from IK goals its clip keeps at the ends of its arms.
+    let (_, folder) = rigfit_testkit::Corpus::locations();
+    let path = folder.join("assimp/mrfixit.glb");
+    let out = stdout(&rigfit(&["info", path.to_str().expect("utf-8")]));
+    assert!(out.contains("ArmIK.L [free] (tied to Hand.L)"), "{out}");
+    assert!(out.contains("ArmIK.R [free] (tied to Hand.R)"), "{out}");
+}

@@ -174,7 +174,12 @@ fn describe_rig(out: &mut String, rig: &Rig) -> anyhow::Result<()> {
         } else {
             String::new()
         };
-        writeln!(out, "  {indent}{deep}{}{kind}{dof}", joint.name)?;
+        // An IK goal the clips keep at the end of a limb (`Rig::tie_goals`).
+        let tie = joint
+            .tie
+            .map(|t| format!(" (tied to {})", s.joint(t.to).name))
+            .unwrap_or_default();
+        writeln!(out, "  {indent}{deep}{}{kind}{dof}{tie}", joint.name)?;
         stack.extend(s.children(j).iter().rev().map(|&c| (c, depth + 1)));
     }
     writeln!(out, "animations: {}", rig.animations.len())?;
