@@ -325,7 +325,7 @@ pub fn joint_limit_residuals(
 pub(crate) struct Ties {
     /// (the tied joint, its tie, the deepest joint above both).
     ties: Vec<(usize, JointTie, Option<usize>)>,
-    weight: f64,
+    pub(crate) weight: f64,
 }
 
 impl Ties {

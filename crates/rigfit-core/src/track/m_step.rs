@@ -57,11 +57,10 @@ impl Tracker {
         };
         let limits = self.options.limit_weight;
         let layout = &self.layout;
-        let ties = Ties::new(
-            layout,
-            skeleton,
-            Ties::WEIGHT * pulls.iter().map(|p| p.weight).sum::<f64>(),
-        );
+        let mut ties = Ties::new(layout, skeleton, 0.0);
+        if !ties.is_empty() {
+            ties.weight = Ties::WEIGHT * pulls.iter().map(|p| p.weight).sum::<f64>();
+        }
         ne.set_allow_tree(ties.is_empty());
         let objective = |pose: &Pose,
                          fk: &ForwardKinematics,
@@ -263,6 +262,10 @@ fn rotation_prior(
 /// data alone.
 fn held_free_joints(layout: &DofLayout, skeleton: &Skeleton) -> Vec<bool> {
     let n = layout.joint_count();
+    // Most rigs have none (their one free joint is the root): nothing to allocate.
+    if !(0..n).any(|j| layout.dof(j) == JointDof::Free && skeleton.joint(j).parent.is_some()) {
+        return Vec::new();
+    }
     let mut carries = vec![false; n];
     for j in 0..n {
         if let Some(p) = skeleton.joint(j).parent {
