@@ -1,5 +1,6 @@
 //! The M-step: Levenberg-Marquardt on the weighted pulls of eq. (20) (or eq. 21) plus a
-//! rotation prior toward the frame's start pose and the joints' soft limits.
+//! prior toward the frame's start pose (rotations, and the places of free joints below the
+//! root), the ties of IK goals and the joints' soft limits.
 
 use super::Tracker;
 use super::texture::TexturePoint;
@@ -61,6 +62,7 @@ impl Tracker {
         if !ties.is_empty() {
             ties.weight = Ties::WEIGHT * pulls.iter().map(|p| p.weight).sum::<f64>();
         }
+        // A tie couples two branches of the tree: the dense form holds it.
         ne.set_allow_tree(ties.is_empty());
         let objective = |pose: &Pose,
                          fk: &ForwardKinematics,
@@ -128,7 +130,7 @@ impl Tracker {
                     ties.each(layout, fk, inv_h, &mut cols, |r, w, c| {
                         ne.add_point_columns(r, w, c)
                     });
-                    rotation_prior(
+                    prior_toward_start(
                         layout,
                         &held,
                         start,
@@ -162,7 +164,7 @@ impl Tracker {
                     ties.each(layout, fk, inv_h, &mut cols, |r, w, _| {
                         cost += w * r.norm_squared()
                     });
-                    rotation_prior(
+                    prior_toward_start(
                         layout,
                         &held,
                         start,
@@ -221,12 +223,12 @@ impl Tracker {
     }
 }
 
-/// `Phi`: each rotating joint's rotation vector away from `start`, per axis, handed to
+/// The prior `Phi`: each rotating joint's rotation vector away from `start`, per axis, handed to
 /// `add(residual, weight, column, derivative)`; and each of the `held` free joints'
 /// ([`held_free_joints`]) translation away from `start` (in heights, `inv_h` one over the
 /// height). A free joint's rotation, like the root's, moves with the data alone (holding it
 /// too was measured worse on both halves: BENCHMARKS.md).
-fn rotation_prior(
+fn prior_toward_start(
     layout: &DofLayout,
     held: &[bool],
     start: &Pose,
@@ -257,9 +259,8 @@ fn rotation_prior(
 /// ([`super::TrackOptions::hold_free_joints`]): those below a moving joint that carry joints
 /// of their own (a hip node or an IK goal a clip translates, with a leg or a hand below it).
 /// Where the data does not pin such a joint's place (a limb sliding along itself) it would
-/// wander from frame to frame. The topmost free joints
-/// (the body's root) and free leaves (a marker, pinned by its own points) move with the
-/// data alone.
+/// wander from frame to frame. The topmost free joints (the body's root) and free leaves (a
+/// marker, pinned by its own points) move with the data alone.
 fn held_free_joints(layout: &DofLayout, skeleton: &Skeleton) -> Vec<bool> {
     let n = layout.joint_count();
     // Most rigs have none (their one free joint is the root): nothing to allocate.
