@@ -490,8 +490,9 @@ fn within_limits(rest: &Quat, p: &Trs, q: &Trs, u: f64) -> Quat {
 
 /// A smooth synthetic motion of `frames` frames from the rig's start pose through three
 /// random far poses (limbs up to 90 degrees, other joints up to 40, no heading), every
-/// joint turned between them with eased timing ([`within_limits`]), while the whole body
-/// travels a third of its height across the up axis and turns up to 40 degrees about it.
+/// joint turned between them with eased timing (its rotation vector from rest on a straight
+/// line, within its limits), while the whole body travels a third of its height across the
+/// up axis and turns up to 40 degrees about it.
 pub fn synthetic_motion(read: &CorpusRig, frames: usize, rng: &mut impl Rng) -> Vec<Pose> {
     synthetic_motion_through(read, frames, 3, rng)
 }
