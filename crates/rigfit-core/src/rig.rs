@@ -176,7 +176,7 @@ impl Rig {
                 worlds.push(skeleton.world_matrices(&clip.sample(&rest, t)));
             }
         }
-        let origin = |m: &crate::math::Matrix4| Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]);
+        let origin = crate::math::translation_part;
         let mut ties = Vec::new();
         for &goal in &goals {
             let mut best: Option<(f64, JointTie)> = None;
@@ -201,8 +201,7 @@ impl Rig {
                 let offset = places.iter().sum::<Vector3>() / places.len() as f64;
                 // Measured in the world (the frame may scale).
                 let strays = worlds.iter().zip(&places).any(|(w, p)| {
-                    let linear = w[to].fixed_view::<3, 3>(0, 0).into_owned();
-                    (linear * (p - offset)).norm() > tolerance
+                    (crate::math::linear_part(&w[to]) * (p - offset)).norm() > tolerance
                 });
                 if strays {
                     continue;

@@ -64,6 +64,10 @@ impl Tracker {
         }
         // A tie couples two branches of the tree: the dense form holds it.
         ne.set_allow_tree(ties.is_empty());
+        // The prior toward the frame's start, for either form of the objective below.
+        let prior_at = |pose: &Pose, add: &mut dyn FnMut(f64, f64, usize, f64)| {
+            prior_toward_start(layout, &held, start, pose, prior, inv_h, add)
+        };
         let objective = |pose: &Pose,
                          fk: &ForwardKinematics,
                          ne: Option<(&mut SubtreeMoments, &mut SkeletonNormalEquations)>|
@@ -130,15 +134,7 @@ impl Tracker {
                     ties.each(layout, fk, inv_h, &mut cols, |r, w, c| {
                         ne.add_point_columns(r, w, c)
                     });
-                    prior_toward_start(
-                        layout,
-                        &held,
-                        start,
-                        pose,
-                        prior,
-                        inv_h,
-                        &mut |r, w, col, d| ne.add_scalar(r, w, col, d),
-                    );
+                    prior_at(pose, &mut |r, w, col, d| ne.add_scalar(r, w, col, d));
                     // Only the axes outside their limits: inside, the hinge-shaped cost is
                     // flat and a zero row would only damp the joint.
                     all_limit_residuals(
@@ -164,15 +160,7 @@ impl Tracker {
                     ties.each(layout, fk, inv_h, &mut cols, |r, w, _| {
                         cost += w * r.norm_squared()
                     });
-                    prior_toward_start(
-                        layout,
-                        &held,
-                        start,
-                        pose,
-                        prior,
-                        inv_h,
-                        &mut |r, w, _, _| cost += w * r * r,
-                    );
+                    prior_at(pose, &mut |r, w, _, _| cost += w * r * r);
                     all_limit_residuals(
                         layout,
                         skeleton,
@@ -267,15 +255,10 @@ fn held_free_joints(layout: &DofLayout, skeleton: &Skeleton) -> Vec<bool> {
     if !(0..n).any(|j| layout.dof(j) == JointDof::Free && skeleton.joint(j).parent.is_some()) {
         return Vec::new();
     }
-    let mut carries = vec![false; n];
-    for j in 0..n {
-        if let Some(p) = skeleton.joint(j).parent {
-            carries[p] = true;
-        }
-    }
     (0..n)
         .map(|j| {
-            if layout.offset(j).is_none() || layout.dof(j) != JointDof::Free || !carries[j] {
+            let carries = !skeleton.children(j).is_empty();
+            if layout.offset(j).is_none() || layout.dof(j) != JointDof::Free || !carries {
                 return false;
             }
             let mut at = skeleton.joint(j).parent;
