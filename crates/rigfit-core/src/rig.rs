@@ -19,6 +19,11 @@ const TIE_TOLERANCE: f64 = 2e-3;
 /// Each clip is sampled at this many evenly spaced times when looking for ties.
 const TIE_SAMPLES: usize = 32;
 
+/// The most (goal, joint, sample) comparisons the search for ties makes: a rig whose
+/// candidate goals, joints and clips would need more (thousands of each, far beyond any
+/// real rig: mrfixit needs 5,000) gets no ties rather than minutes of work.
+const TIE_BUDGET: usize = 50_000_000;
+
 /// A leaf joint gets a tip from its skin when the vertices it dominates lie to one side of
 /// it: their centroid at least this share of their farthest distance from the joint.
 const TIP_SIDEDNESS: f64 = 0.25;
@@ -164,6 +169,15 @@ impl Rig {
             })
             .collect();
         if goals.is_empty() {
+            return 0;
+        }
+        let samples = 1 + self.animations.len().saturating_mul(TIE_SAMPLES);
+        if goals.len().saturating_mul(n).saturating_mul(samples) > TIE_BUDGET {
+            tracing::warn!(
+                "{} free joints, {n} joints and {} clips: too many to look for IK goals' ties",
+                goals.len(),
+                self.animations.len()
+            );
             return 0;
         }
         // The world transforms of the rest pose and of every clip's samples.
@@ -534,5 +548,43 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Thousands of translated free joints are too many to look for ties in: none is
+    /// tied, and the search returns at once (no world transforms built).
+    #[test]
+    fn too_many_goals_get_no_ties() {
+        let at = |x: f64| Trs::from_translation(Vector3::new(x, 0.0, 0.0));
+        let mut joints = vec![Joint::new("Root", None, at(0.0))];
+        for k in 0..1000 {
+            joints.push(Joint::new(format!("Goal{k}"), Some(0), at(1.0)));
+            joints.push(Joint::new(format!("Hand{k}"), Some(2 * k + 1), at(0.1)));
+        }
+        let mut skeleton = Skeleton::new(joints).expect("a tree");
+        for k in 0..1000 {
+            skeleton.set_dof(2 * k + 1, JointDof::Free, None);
+        }
+        let pose = skeleton.rest_pose();
+        let channels = (0..1000)
+            .map(|k| AnimationChannel {
+                joint: 2 * k + 1,
+                target: ChannelTarget::Translation,
+                interpolation: Interpolation::Linear,
+                times: vec![0.0, 1.0],
+                values: vec![[1.0, 0.0, 0.0, 0.0], [1.0, 0.5, 0.0, 0.0]],
+            })
+            .collect();
+        let mut rig = Rig {
+            skeleton,
+            pose,
+            meshes: Vec::new(),
+            animations: vec![Animation {
+                name: "all".into(),
+                channels,
+                frame_time: None,
+            }],
+        };
+        assert_eq!(rig.tie_goals(), 0);
+        assert!(rig.skeleton.joints().iter().all(|j| j.tie.is_none()));
     }
 }
