@@ -2,14 +2,15 @@
 //! whichever way they face: hypotheses of position and heading about the model's up axis,
 //! each refined by the tracker's own EM (eq. 17, M-step eq. 20) with only the root free at a
 //! wide `sigma`; then the best few refined with every joint free, `sigma` annealed from wide
-//! to the noise level; the hypothesis whose final E-step explains the most data wins.
+//! to the noise level; the hypothesis whose final E-step explains the most data wins, unless
+//! the winner turned half about its own up axis explains more.
 
 use super::limb_swings::{LimbSwingOptions, swing_limbs};
 use super::{ArticulatedModel, TrackError, TrackOptions, Tracker, check_cloud, explained_share};
 use crate::engine::{EmStep, PointGrid};
 use crate::geometry::centroid;
 use crate::kinematics::DofLayout;
-use crate::math::{Point3, Quat, Vector3};
+use crate::math::{Point3, Quat, Vector3, linear_part};
 use crate::skeleton::{JointDof, Pose};
 
 /// Two root-only fits are one hypothesis when their roots are this close (fraction of the
@@ -63,6 +64,11 @@ pub struct InitialiseOptions {
     /// The width at which hypotheses are compared: the data's summed inlier posteriors of
     /// one E-step (eq. 17) at this `sigma`, over every texture point.
     pub score_sigma: f64,
+    /// After the first every-joint pass, the winner turned half about its own up axis
+    /// (the model's up axis as its root carries it) is fitted too and wins when it explains
+    /// more: a flat hand's palm and back, which the root-alone fit with the limbs at rest
+    /// cannot tell apart.
+    pub half_turn: bool,
     /// After the winner's first every-joint pass, its limbs swung to where they explain
     /// the data best (`None`: not tried, the default: measured in BENCHMARKS.md, they help
     /// some takes and hurt others, and cost up to a second).
@@ -91,6 +97,7 @@ impl Default for InitialiseOptions {
             refine_sigma: 0.06,
             refine_steps: 4,
             score_sigma: 0.03,
+            half_turn: true,
             limb_swings: None,
         }
     }
@@ -106,7 +113,8 @@ pub struct Initialisation {
     pub score: f64,
     /// The winner's heading about the up axis (radians) before refinement.
     pub heading: f64,
-    /// Every hypothesis tried, best root-only score first.
+    /// Every hypothesis tried, best root-only score first, then the winner turned half
+    /// ([`InitialiseOptions::half_turn`]).
     pub tried: Vec<Tried>,
 }
 
@@ -117,7 +125,8 @@ pub struct Tried {
     /// (0: the median, 1: the mean near it).
     pub heading: f64,
     pub centre: usize,
-    /// Its score after the root-only EM, and after the every-joint EM when it got there.
+    /// Its score after the root-only EM (NaN for the winner turned half, which starts
+    /// from the every-joint fit), and after the every-joint EM when it got there.
     pub root_score: f64,
     pub full_score: Option<f64>,
     /// The pose it ended in.
@@ -316,6 +325,26 @@ pub fn initialise_with(
         }
     }
     let mut best = best.ok_or(TrackError::NothingMoves)?;
+    if settings.half_turn {
+        let turned = half_turned(&mut tracker, &best.pose, &roots, &up);
+        let score = fit(&mut tracker, &turned, data, score_sigma);
+        tracing::debug!(
+            "initialise: the winner {:.3}, turned half about its up axis {score:.3}",
+            best.score
+        );
+        tried.push(Tried {
+            heading: best.heading + std::f64::consts::PI,
+            centre: best.centre,
+            root_score: f64::NAN,
+            full_score: Some(score),
+            pose: tracker.pose.clone(),
+        });
+        if score > best.score {
+            best.pose.clone_from(&tracker.pose);
+            best.score = score;
+            best.heading += std::f64::consts::PI;
+        }
+    }
     // Limbs the first pass left far from their data (a T-pose's arms against arms that
     // hang down) swung where they explain it best, before the refinement passes.
     if let Some(swings) = &settings.limb_swings {
@@ -373,6 +402,29 @@ fn fit(tracker: &mut Tracker, start: &Pose, data: &[Point3], sigma: f64) -> f64 
         return f64::NEG_INFINITY;
     }
     tracker.explained_share(data, sigma)
+}
+
+/// `pose` turned half about the model's up axis `up` as the first of `roots` carries it
+/// there (from the start pose to `pose`), about the texture's centroid in `pose`.
+fn half_turned(
+    tracker: &mut Tracker,
+    pose: &Pose,
+    roots: &[usize],
+    up: &nalgebra::Unit<Vector3>,
+) -> Pose {
+    let skeleton = &tracker.model.skeleton;
+    let root = roots.first().copied().unwrap_or(0);
+    let at = |p: &Pose| linear_part(&skeleton.world_matrices(p)[root]);
+    let carried = at(pose)
+        * at(&tracker.model.start)
+            .try_inverse()
+            .unwrap_or_else(nalgebra::Matrix3::identity);
+    let axis = nalgebra::Unit::try_new(carried * up.into_inner(), 1e-12).unwrap_or(*up);
+    let turn = Quat::from_axis_angle(&axis, std::f64::consts::PI);
+    tracker.set_pose(pose);
+    let centre = centroid(&tracker.texture_positions());
+    let shift = centre.coords - turn * centre.coords;
+    tracker.model.skeleton.moved_rigidly(pose, &turn, &shift)
 }
 
 /// The topmost joints that move: a joint with its own degrees of freedom and no moving
@@ -475,6 +527,39 @@ fn same_place(
 mod tests {
     use super::*;
     use crate::humanoid::humanoid;
+
+    /// The half turn is about the model's up axis as the root carries it: a body laid along
+    /// x turns about x (every joint keeps its place along x), and twice is the identity.
+    #[test]
+    fn a_half_turn_is_about_the_carried_up_axis() {
+        let model = ArticulatedModel::from_rig(&humanoid(), 500).expect("model");
+        let mut tracker = Tracker::new(model.clone(), TrackOptions::default()).expect("tracker");
+        let up = model.up_axis();
+        assert_eq!(up, Vector3::y_axis());
+        let laid = Quat::from_axis_angle(&Vector3::z_axis(), -std::f64::consts::FRAC_PI_2);
+        let pose = model
+            .skeleton
+            .moved_rigidly(&model.start, &laid, &Vector3::new(0.3, 0.1, -0.2));
+        let roots = root_joints(&model);
+        let once = half_turned(&mut tracker, &pose, &roots, &up);
+        let twice = half_turned(&mut tracker, &once, &roots, &up);
+        let (p, q, r) = (
+            model.skeleton.joint_positions(&pose),
+            model.skeleton.joint_positions(&once),
+            model.skeleton.joint_positions(&twice),
+        );
+        let h = model.height;
+        let mut moved = 0.0_f64;
+        for ((a, b), c) in p.iter().zip(&q).zip(&r) {
+            assert!((a.x - b.x).abs() < 1e-9 * h, "{a} -> {b}");
+            assert!((a - c).norm() < 1e-9 * h, "{a} -> {c}");
+            moved = moved.max((a - b).norm());
+        }
+        assert!(
+            moved > 0.1 * h,
+            "the half turn moved joints by at most {moved}"
+        );
+    }
 
     /// The humanoid's own surface, turned and moved far from where the model stands, is
     /// found again from the model's start pose.
