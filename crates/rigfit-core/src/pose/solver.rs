@@ -66,14 +66,6 @@ const IMPROVED_HYPOTHESES: usize = 2;
 /// Rounds of the chain step (re-assignments and strays set aside).
 const CHAIN_STEP_ROUNDS: usize = 8;
 
-/// With several rigid placements, every hypothesis is screened by a chain step of this many
-/// rounds of this many fitting steps, and the best few distinct ones go on through the whole
-/// chain step (measured on both halves, 18 cases a cell: 3 rounds of 10 steps keeping 5
-/// against 2 x 8 keeping 3, 3 x 10 keeping 3 and 4 x 20 keeping 4; BENCHMARKS.md).
-const SCREEN_ROUNDS: usize = 3;
-const SCREEN_STEPS: usize = 10;
-const SCREENED_KEPT: usize = 5;
-
 /// A fitted hypothesis: its score, pose, assignment and the layout of joints that move.
 #[derive(Clone)]
 pub(super) struct ChainFit {
@@ -161,8 +153,6 @@ impl<'a> Solver<'a> {
         } else {
             &[false]
         };
-        // With several placements, each hypothesis is first screened by a short chain step.
-        let screened = starts.len() > 1;
         let mut fits: Vec<ChainFit> = Vec::new();
         for start in &starts {
             for &by_shape in modes {
@@ -174,26 +164,7 @@ impl<'a> Solver<'a> {
                 if opts.anneal_before_chains {
                     anneal(&self.setup, &mut self.fitter, &all, &sigmas, None);
                 }
-                fits.push(if screened {
-                    self.chain_step_with(None, SCREEN_ROUNDS, SCREEN_STEPS)
-                } else {
-                    self.chain_step(None)
-                });
-            }
-        }
-        if screened {
-            // The best screened hypotheses go on through the whole chain step from where
-            // their screening left them.
-            fits.sort_by(|a, b| a.score.total_cmp(&b.score));
-            fits.dedup_by(|a, b| a.assignment == b.assignment);
-            fits.truncate(SCREENED_KEPT);
-            for fit in &mut fits {
-                if self.setup.interrupt.is_set() {
-                    break;
-                }
-                self.fitter.pose = fit.pose.clone();
-                self.by_shape = fit.by_shape;
-                *fit = self.chain_step(Some(fit.assignment.clone()));
+                fits.push(self.chain_step(None));
             }
         }
         fits.sort_by(|a, b| a.score.total_cmp(&b.score));
@@ -299,16 +270,6 @@ impl<'a> Solver<'a> {
     /// arclength, set strays aside (judged after the fit: a stroke its chain cannot
     /// follow), re-assign until stable.
     pub fn chain_step(&mut self, seed: Option<Vec<Assignment>>) -> ChainFit {
-        self.chain_step_with(seed, CHAIN_STEP_ROUNDS, FULL_FIT_STEPS)
-    }
-
-    /// [`Solver::chain_step`] with at most `rounds` rounds of `steps` fitting steps each.
-    pub fn chain_step_with(
-        &mut self,
-        seed: Option<Vec<Assignment>>,
-        rounds: usize,
-        steps: usize,
-    ) -> ChainFit {
         let strokes = self.setup.strokes.count();
         let stray = self.setup.options.stray_distance;
         let initial = self.fitter.pose.clone();
@@ -322,7 +283,7 @@ impl<'a> Solver<'a> {
         };
         let mut layout = self.setup.layout(&self.setup.movable);
         let mut refitted = false;
-        for _round in 0..rounds {
+        for _round in 0..CHAIN_STEP_ROUNDS {
             if self.setup.interrupt.is_set() {
                 break;
             }
@@ -330,7 +291,7 @@ impl<'a> Solver<'a> {
                 .fitter
                 .keep_unexplained_at_start(&self.setup, &assignment);
             self.fitter
-                .fit_arclength(&self.setup, &layout, &assignment, steps);
+                .fit_arclength(&self.setup, &layout, &assignment, FULL_FIT_STEPS);
             let again = self.assign_now(&excluded, Some(&assignment));
             if again != assignment {
                 assignment = again;
