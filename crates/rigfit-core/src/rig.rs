@@ -2,7 +2,7 @@
 
 use crate::animation::{Animation, ChannelTarget};
 use crate::geometry::{Aabb, TriMesh};
-use crate::math::{Point3, Vector3};
+use crate::math::{Point3, Trs, Vector3};
 use crate::skeleton::{JointDof, JointKind, JointTie, Pose, Skeleton};
 
 /// A box whose y side is under this share of its z side is taken to be z-up.
@@ -23,6 +23,13 @@ const TIE_SAMPLES: usize = 32;
 /// candidate goals, joints and clips would need more (thousands of each, far beyond any
 /// real rig: mrfixit needs 5,000) gets no ties rather than minutes of work.
 const TIE_BUDGET: usize = 50_000_000;
+
+/// At most this many clip places are noted per joint ([`Rig::note_clip_places`]), each
+/// at least [`CLIP_PLACE_APART`] from the others and from rest, where a radian of turn
+/// counts [`CLIP_PLACE_TURN`] of the height.
+const CLIP_PLACES: usize = 6;
+const CLIP_PLACE_APART: f64 = 0.05;
+const CLIP_PLACE_TURN: f64 = 0.25;
 
 /// A leaf joint gets a tip from its skin when the vertices it dominates lie to one side of
 /// it: their centroid at least this share of their farthest distance from the joint.
@@ -238,6 +245,97 @@ impl Rig {
             self.skeleton.set_tie(goal, Some(tie));
         }
         ties.len()
+    }
+
+    /// Notes, for each free joint below the root that carries joints, that the clips
+    /// translate and that is tied to no other such joint (a hip node a sit clip drops to
+    /// the floor with the legs under it), a few of the local transforms the clips give it,
+    /// as far apart as they come ([`crate::skeleton::Joint::clip_places`]), and for each
+    /// such joint tied to it (the other hip, which the clips keep at the same place) its
+    /// transforms at the same clip times. Tracking's first-frame search tries the joints at
+    /// each, since the fit's own steps from the rest pose do not carry a limb that far.
+    /// Joints tied to any other joint (an IK goal at the end of an arm) get none: their tie
+    /// places them. Call after [`Rig::tie_goals`] (readers do). Returns how many joints got
+    /// places.
+    pub fn note_clip_places(&mut self) -> usize {
+        let skeleton = &self.skeleton;
+        let n = skeleton.len();
+        let size = self.height().max(1e-12);
+        let mut translated = vec![false; n];
+        for channel in self.animations.iter().flat_map(|a| &a.channels) {
+            if channel.target == ChannelTarget::Translation && channel.joint < n {
+                translated[channel.joint] = true;
+            }
+        }
+        let carries: Vec<bool> = (0..n)
+            .map(|j| {
+                let joint = skeleton.joint(j);
+                joint.dof == JointDof::Free
+                    && joint.parent.is_some()
+                    && translated[j]
+                    && !skeleton.children(j).is_empty()
+            })
+            .collect();
+        // Each leader with the joints tied to it.
+        let groups: Vec<(usize, Vec<usize>)> = (0..n)
+            .filter(|&j| carries[j] && skeleton.joint(j).tie.is_none())
+            .map(|j| {
+                let tied = (0..n)
+                    .filter(|&f| carries[f] && skeleton.joint(f).tie.is_some_and(|t| t.to == j))
+                    .collect();
+                (j, tied)
+            })
+            .collect();
+        let samples = self.animations.len().saturating_mul(TIE_SAMPLES);
+        if groups.is_empty() || samples == 0 || n.saturating_mul(samples) > TIE_BUDGET {
+            return 0;
+        }
+        let rest = skeleton.rest_pose();
+        let mut poses: Vec<Pose> = Vec::with_capacity(samples);
+        for clip in &self.animations {
+            let (start, duration) = (clip.start(), clip.duration());
+            for k in 0..TIE_SAMPLES {
+                let t = start + duration * k as f64 / (TIE_SAMPLES - 1) as f64;
+                poses.push(clip.sample(&rest, t));
+            }
+        }
+        // Apart: the translations' distance in heights plus the turn between them.
+        let apart = |a: &Trs, b: &Trs| {
+            (a.translation - b.translation).norm() / size
+                + CLIP_PLACE_TURN * a.rotation.angle_to(&b.rotation)
+        };
+        let mut noted = 0;
+        for (leader, tied) in groups {
+            // Farthest first, from the rest transform.
+            let mut chosen: Vec<usize> = Vec::new();
+            let mut nearest: Vec<f64> = poses
+                .iter()
+                .map(|p| apart(&p.local[leader], &rest.local[leader]))
+                .collect();
+            while chosen.len() < CLIP_PLACES {
+                let Some((k, &d)) = nearest.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))
+                else {
+                    break;
+                };
+                if d < CLIP_PLACE_APART {
+                    break;
+                }
+                chosen.push(k);
+                let place = poses[k].local[leader];
+                for (m, p) in nearest.iter_mut().zip(&poses) {
+                    *m = m.min(apart(&p.local[leader], &place));
+                }
+            }
+            if chosen.is_empty() {
+                continue;
+            }
+            for j in std::iter::once(leader).chain(tied) {
+                let places = chosen.iter().map(|&k| poses[k].local[j]).collect();
+                self.skeleton.set_clip_places(j, places);
+                noted += 1;
+            }
+        }
+        noted
     }
 
     /// Gives every leaf skin joint whose skin hangs to one side of it (a limb box of a
@@ -548,6 +646,105 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Two hip nodes a sit clip drops and turns together, each carrying a leg: the first is
+    /// the leader (the second is tied to it) and gets the clip's transforms farthest apart,
+    /// the farthest first; the second gets its own at the same times; a rig whose clips
+    /// translate nothing below the root gets none.
+    #[test]
+    fn hips_a_sit_clip_drops_get_its_places_the_tied_one_at_the_same_times() {
+        let at = |x: f64, y: f64| Trs::from_translation(Vector3::new(x, y, 0.0));
+        let mut joints = vec![
+            Joint::new("Body", None, at(0.0, 1.0)),
+            Joint::new("HipL", Some(0), at(-0.1, 0.0)),
+            Joint::new("LegL", Some(1), at(0.0, -0.5)),
+            Joint::new("HipR", Some(0), at(0.1, 0.0)),
+            Joint::new("LegR", Some(3), at(0.0, -0.5)),
+        ];
+        joints[1].kind = JointKind::Helper;
+        joints[3].kind = JointKind::Helper;
+        let mut skeleton = Skeleton::new(joints).expect("a tree");
+        skeleton.set_default_dofs();
+        let pose = skeleton.rest_pose();
+        let times: Vec<f64> = (0..=16).map(|k| k as f64 / 16.0).collect();
+        let drop = |joint: usize, x: f64| AnimationChannel {
+            joint,
+            target: ChannelTarget::Translation,
+            interpolation: Interpolation::Linear,
+            times: times.clone(),
+            values: times.iter().map(|&t| [x, -0.5 * t, 0.0, 0.0]).collect(),
+        };
+        let turn = |joint: usize| AnimationChannel {
+            joint,
+            target: ChannelTarget::Rotation,
+            interpolation: Interpolation::Linear,
+            times: times.clone(),
+            values: times
+                .iter()
+                .map(|&t| {
+                    let q = crate::math::Quat::from_axis_angle(&Vector3::x_axis(), 1.4 * t);
+                    crate::animation::quat_to_xyzw(&q)
+                })
+                .collect(),
+        };
+        let mut rig = Rig {
+            skeleton,
+            pose,
+            meshes: Vec::new(),
+            animations: vec![Animation {
+                name: "sit".into(),
+                channels: vec![drop(1, -0.1), turn(1), drop(3, 0.1), turn(3)],
+                frame_time: None,
+            }],
+        };
+        let mut still = rig.clone();
+        still.animations[0]
+            .channels
+            .retain(|c| c.target == ChannelTarget::Rotation);
+        assert_eq!(still.note_clip_places(), 0, "nothing translates");
+
+        assert_eq!(rig.free_translating_joints(), 2);
+        assert_eq!(rig.tie_goals(), 1);
+        let (leader, follower) = match rig.skeleton.joint(3).tie {
+            Some(tie) => (tie.to, 3),
+            None => (3, 1),
+        };
+        assert_eq!(rig.note_clip_places(), 2);
+        let places = &rig.skeleton.joint(leader).clip_places;
+        let followed = &rig.skeleton.joint(follower).clip_places;
+        assert!(
+            places.len() >= 2 && places.len() <= CLIP_PLACES,
+            "{}",
+            places.len()
+        );
+        assert_eq!(followed.len(), places.len());
+        // The farthest first: the whole drop and turn.
+        assert!(
+            (places[0].translation.y + 0.5).abs() < 1e-9,
+            "{:?}",
+            places[0]
+        );
+        assert!((places[0].rotation.angle() - 1.4).abs() < 1e-6);
+        // The tied hip at the same times: its own side, as far down.
+        for (a, b) in places.iter().zip(followed) {
+            assert!((a.translation.y - b.translation.y).abs() < 1e-9);
+            assert!((a.translation.x + b.translation.x).abs() < 1e-9);
+        }
+        // Every place apart from the others and from rest (a radian is a quarter height).
+        let size = rig.height();
+        let rest = rig.skeleton.joint(leader).rest;
+        for (i, a) in places.iter().enumerate() {
+            for b in places[..i].iter().chain(std::iter::once(&rest)) {
+                let apart = (a.translation - b.translation).norm() / size
+                    + CLIP_PLACE_TURN * a.rotation.angle_to(&b.rotation);
+                assert!(apart >= CLIP_PLACE_APART, "{apart}");
+            }
+        }
+        assert!(
+            rig.skeleton.joint(2).clip_places.is_empty(),
+            "the legs do not translate"
+        );
     }
 
     /// Thousands of translated free joints are too many to look for ties in: none is

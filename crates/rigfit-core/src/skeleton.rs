@@ -78,6 +78,12 @@ pub struct Joint {
     /// For a free joint the rig's clips keep at one place in another joint's frame (an IK
     /// goal at the end of its arm, [`crate::Rig::tie_goals`]): that place, held in tracking.
     pub tie: Option<JointTie>,
+    /// For a free joint below the root that carries joints and that the rig's clips
+    /// translate (a hip node a sit clip drops to the floor): a few local transforms its
+    /// clips give it, far apart ([`crate::Rig::note_clip_places`]); for such a joint tied
+    /// to another (`tie`), its transforms at the same clip times as that joint's places.
+    /// Tracking's first-frame search tries the joints at each of them.
+    pub clip_places: Vec<Trs>,
 }
 
 /// Where a joint's origin stays: at `offset` (the rig's units) in joint `to`'s frame.
@@ -99,6 +105,7 @@ impl Joint {
             limits: None,
             translation_limits: None,
             tie: None,
+            clip_places: Vec::new(),
         }
     }
 }
@@ -231,6 +238,11 @@ impl Skeleton {
     /// Sets joint `index`'s tie (see [`Joint::tie`]).
     pub fn set_tie(&mut self, index: usize, tie: Option<JointTie>) {
         self.joints[index].tie = tie;
+    }
+
+    /// Sets joint `index`'s clip places (see [`Joint::clip_places`]).
+    pub fn set_clip_places(&mut self, index: usize, places: Vec<Trs>) {
+        self.joints[index].clip_places = places;
     }
 
     pub fn len(&self) -> usize {

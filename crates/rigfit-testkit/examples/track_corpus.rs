@@ -18,7 +18,7 @@
 //! `TANGENTIAL=x`, `PRIOR=x`, `MAX_MOTION=x`, `ANNEAL_STEPS=n`, `LIMIT_WEIGHT=x`, `PREDICTION=x`, `FINAL_ITERATIONS=n`, `NOISE=x`, `EXPONENT=x`,
 //! `RELAXATION=x` and `POINT_TO_PLANE=0`, `HOLD_FREE=0` (hold_free_joints), `VISIBLE_ONLY=0` set the tracker's options of those names,
 //! `SWINGS=1` turns on the first-frame search's limb swings, `HALF_TURN=0` turns off its
-//! half-turned winner, and `FULL_PASSES=n`,
+//! half-turned winner, `CLIP_PLACES=0` its clip places, and `FULL_PASSES=n`,
 //! `REFINE_SIGMA=x`, `REFINE_STEPS=n`, `FULL_PRIOR=x`, `KEEP=n`, `LAID_KEPT=n` and
 //! `HEADINGS=n` set its options). The corpus is
 //! `RIGFIT_CORPUS` over `data/corpus.json`; the suites' assets are `RIGFIT_DATA`.
@@ -70,6 +70,9 @@ fn settings() -> TakeSettings {
     }
     if let Some(v) = env_knobs::number("HALF_TURN") {
         take.search.half_turn = v != 0.0;
+    }
+    if let Some(v) = env_knobs::number("CLIP_PLACES") {
+        take.search.clip_places = v != 0.0;
     }
     env_knobs::set_count("FULL_PASSES", &mut take.search.full_passes);
     env_knobs::set("REFINE_SIGMA", &mut take.search.refine_sigma);

@@ -1,8 +1,9 @@
 //! Tracking a take from the rig's rest or bind pose with the body anywhere and turned any
-//! way (issue 23), on a sample of what `examples/track_corpus` sweeps: one suite, four
-//! held-out corpus rigs and one of the tune half, each moved by one seed's rigid motion. Bounds: mean joint error
-//! below 3% of the height from frame 5 on and no frame above 10%. The whole corpus's figures
-//! (the bar is 95% of sequences; not met yet) are in BENCHMARKS.md.
+//! way (issue 23), on a sample of what `examples/track_corpus` sweeps: one suite, six
+//! held-out corpus rigs and one of the tune half, each moved by one seed's rigid motion,
+//! and the whole corpus against issue 23's bar (95% of its sequences). Bounds: mean joint
+//! error below 3% of the height from frame 5 on and no frame above 10%. The whole corpus's
+//! figures per sequence are in BENCHMARKS.md.
 
 use rigfit_testkit::Corpus;
 use rigfit_testkit::track_cases::SequenceOptions;
@@ -107,14 +108,38 @@ fn a_held_out_flat_hand_turned_over_is_found_palm_for_palm() {
     );
 }
 
-/// Sequences within the bounds over the whole corpus (the suites and [`CORPUS_RIGS`], seeds
-/// 0-2, as `examples/track_corpus` runs them), per half: 27/27 tune and 14/18 held-out when
-/// measured (41/45, 91%; issue 23's bar is 95%, not met). The floors are one sequence under
-/// each: a change must not lower them.
 #[test]
-fn the_whole_corpus_stays_above_its_measured_floor() {
+fn a_held_out_robot_sitting_with_its_legs_dropped_to_the_floor_is_found() {
+    // The maidroid's sit clip drops its hip nodes (translating helpers, one tied to the
+    // other) a quarter of its height and lays the legs on the floor: beyond the fit's reach
+    // from the rest pose (9.7% at the first frame when measured, the legs hung through the
+    // floor). Tried at the places its clips put them (the rig's own clip places), the hips
+    // drop and the take is found (1.6%).
+    let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
+    let sequence = corpus_sequence(&corpus, "minetest-maidroid", 1, &SequenceOptions::default())
+        .expect("sequence");
+    let mut settings = TakeSettings::default();
+    let with = track_sequence(&sequence, &settings).expect("tracks");
+    assert_within_bounds("minetest-maidroid", &with);
+    settings.take.search.clip_places = false;
+    let without = track_sequence(&sequence, &settings).expect("tracks");
+    assert!(
+        with.errors[0] < 0.03 && without.errors[0] > 0.05,
+        "first frame {:.2}% at the clip places, {:.2}% without",
+        100.0 * with.errors[0],
+        100.0 * without.errors[0]
+    );
+}
+
+/// Sequences within the bounds over the whole corpus (the suites and [`CORPUS_RIGS`], seeds
+/// 0-2, as `examples/track_corpus` runs them): issue 23's bar, at least 95% of them (27/27
+/// tune and 16/18 held-out when measured, 43/45), and per half no more than one sequence
+/// under what was measured.
+#[test]
+fn the_whole_corpus_meets_the_bar_of_95_percent() {
+    const BAR: f64 = 0.95;
     const TUNE_FLOOR: usize = 26;
-    const HELD_OUT_FLOOR: usize = 13;
+    const HELD_OUT_FLOOR: usize = 15;
     let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
     let options = SequenceOptions::default();
     let mut sequences: Vec<MovedSequence> = Vec::new();
@@ -142,10 +167,13 @@ fn the_whole_corpus_stays_above_its_measured_floor() {
         "tune {tune}, held-out {held_out}; outside the bounds: {}",
         failed.join(", ")
     );
+    let share = (tune + held_out) as f64 / sequences.len() as f64;
     assert!(
-        tune >= TUNE_FLOOR && held_out >= HELD_OUT_FLOOR,
-        "tune {tune} (floor {TUNE_FLOOR}), held-out {held_out} (floor {HELD_OUT_FLOOR}); \
-         outside the bounds: {}",
+        share >= BAR && tune >= TUNE_FLOOR && held_out >= HELD_OUT_FLOOR,
+        "{:.1}% of {} (bar 95%), tune {tune} (floor {TUNE_FLOOR}), held-out {held_out} \
+         (floor {HELD_OUT_FLOOR}); outside the bounds: {}",
+        100.0 * share,
+        sequences.len(),
         failed.join(", ")
     );
 }

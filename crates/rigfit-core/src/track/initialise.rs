@@ -69,6 +69,13 @@ pub struct InitialiseOptions {
     /// more: a flat hand's palm and back, which the root-alone fit with the limbs at rest
     /// cannot tell apart.
     pub half_turn: bool,
+    /// After each hypothesis's first every-joint pass (and the half-turned winner's), each
+    /// joint with clip places (a hip node the clips translate,
+    /// [`crate::skeleton::Joint::clip_places`]) tried at each of them and kept where it
+    /// explains more, before the hypotheses are compared: the refinement passes carry on
+    /// from there. A limb the clips drop far (a sit's legs on the floor) is out of the
+    /// fit's reach from the rest pose.
+    pub clip_places: bool,
     /// After the winner's first every-joint pass, its limbs swung to where they explain
     /// the data best (`None`: not tried, the default: measured in BENCHMARKS.md, they help
     /// some takes and hurt others, and cost up to a second).
@@ -98,6 +105,7 @@ impl Default for InitialiseOptions {
             refine_steps: 4,
             score_sigma: 0.03,
             half_turn: true,
+            clip_places: true,
             limb_swings: None,
         }
     }
@@ -299,7 +307,10 @@ pub fn initialise_with(
     let mut best: Option<Hypothesis> = None;
     for i in kept {
         let hyp = &root_fits[i];
-        let score = fit(&mut tracker, &hyp.pose, data, score_sigma);
+        let mut score = fit(&mut tracker, &hyp.pose, data, score_sigma);
+        if settings.clip_places {
+            score = at_clip_places(&mut tracker, score, data, score_sigma);
+        }
         tracing::debug!(
             "initialise: heading {:.0} root score {:.3} -> {:.3}",
             hyp.heading.to_degrees(),
@@ -327,7 +338,10 @@ pub fn initialise_with(
     let mut best = best.ok_or(TrackError::NothingMoves)?;
     if settings.half_turn {
         let turned = half_turned(&mut tracker, &best.pose, &roots, &up);
-        let score = fit(&mut tracker, &turned, data, score_sigma);
+        let mut score = fit(&mut tracker, &turned, data, score_sigma);
+        if settings.clip_places {
+            score = at_clip_places(&mut tracker, score, data, score_sigma);
+        }
         tracing::debug!(
             "initialise: the winner {:.3}, turned half about its up axis {score:.3}",
             best.score
@@ -402,6 +416,62 @@ fn fit(tracker: &mut Tracker, start: &Pose, data: &[Point3], sigma: f64) -> f64 
         return f64::NEG_INFINITY;
     }
     tracker.explained_share(data, sigma)
+}
+
+/// The tracker's pose with each joint that has clip places
+/// ([`crate::skeleton::Joint::clip_places`]) moved to the one that explains `data` most,
+/// and its share explained (one E-step at `sigma` each, as [`fit`] scores); a joint none
+/// of whose places explains more than `explained` (the pose's own share) stays.
+fn at_clip_places(tracker: &mut Tracker, explained: f64, data: &[Point3], sigma: f64) -> f64 {
+    let skeleton = &tracker.model.skeleton;
+    // Each joint that leads its places, with the joints tied to it that follow.
+    let groups: Vec<Vec<usize>> = (0..skeleton.len())
+        .filter(|&j| {
+            let joint = skeleton.joint(j);
+            !joint.clip_places.is_empty() && joint.tie.is_none()
+        })
+        .map(|j| {
+            let count = skeleton.joint(j).clip_places.len();
+            std::iter::once(j)
+                .chain((0..skeleton.len()).filter(|&f| {
+                    let follower = skeleton.joint(f);
+                    follower.tie.is_some_and(|t| t.to == j) && follower.clip_places.len() == count
+                }))
+                .collect()
+        })
+        .collect();
+    if groups.is_empty() || !explained.is_finite() {
+        return explained;
+    }
+    let places: Vec<Vec<Vec<crate::math::Trs>>> = groups
+        .iter()
+        .map(|g| {
+            g.iter()
+                .map(|&j| skeleton.joint(j).clip_places.clone())
+                .collect()
+        })
+        .collect();
+    let mut explained = explained;
+    let mut pose = tracker.pose.clone();
+    for (group, places) in groups.iter().zip(&places) {
+        let mut kept: Vec<_> = group.iter().map(|&j| pose.local[j]).collect();
+        for k in 0..places[0].len() {
+            for (&j, joint_places) in group.iter().zip(places) {
+                pose.local[j] = joint_places[k];
+            }
+            tracker.set_pose(&pose);
+            let share = tracker.explained_share(data, sigma);
+            if share > explained {
+                explained = share;
+                kept = group.iter().map(|&j| pose.local[j]).collect();
+            }
+        }
+        for (&j, local) in group.iter().zip(kept) {
+            pose.local[j] = local;
+        }
+    }
+    tracker.set_pose(&pose);
+    explained
 }
 
 /// `pose` turned half about the model's up axis `up` as the first of `roots` carries it
@@ -559,6 +629,53 @@ mod tests {
             moved > 0.1 * h,
             "the half turn moved joints by at most {moved}"
         );
+    }
+
+    /// A leg with clip places (here on the humanoid's thigh): where the data shows the leg
+    /// at one of them, the leg is put there; where it shows the leg as it stands, it stays.
+    #[test]
+    fn a_joint_is_put_at_the_clip_place_the_data_shows() {
+        let mut rig = humanoid();
+        let thigh = rig.skeleton.find("LeftUpLeg").expect("a thigh");
+        let rest = rig.skeleton.joint(thigh).rest;
+        let place = |axis: Vector3, angle: f64, drop: f64| {
+            let mut at = rest;
+            at.rotation =
+                Quat::from_axis_angle(&nalgebra::Unit::new_normalize(axis), angle) * rest.rotation;
+            at.translation.y -= drop;
+            at
+        };
+        let places = vec![
+            place(Vector3::x(), -1.5, 0.3),
+            place(Vector3::z(), 1.0, 0.0),
+            place(Vector3::x(), 0.6, 0.1),
+        ];
+        rig.skeleton.set_clip_places(thigh, places.clone());
+        let model = ArticulatedModel::from_rig(&rig, 1500).expect("model");
+        let h = model.height;
+        let mut tracker = Tracker::new(model.clone(), TrackOptions::default()).expect("tracker");
+        for shown in [Some(0), Some(1), None] {
+            let mut truth = model.start.clone();
+            if let Some(k) = shown {
+                truth.local[thigh] = places[k];
+            }
+            tracker.set_pose(&truth);
+            let data = tracker.texture_positions();
+            tracker.set_pose(&model.start);
+            let before = tracker.explained_share(&data, 0.03 * h);
+            let after = at_clip_places(&mut tracker, before, &data, 0.03 * h);
+            let at = tracker.pose.local[thigh];
+            match shown {
+                Some(k) => {
+                    assert!(after > before, "{after} against {before}");
+                    assert_eq!(at, places[k], "place {k}");
+                }
+                None => {
+                    assert_eq!(after, before);
+                    assert_eq!(at, model.start.local[thigh]);
+                }
+            }
+        }
     }
 
     /// The humanoid's own surface, turned and moved far from where the model stands, is

@@ -178,6 +178,7 @@ impl BvhDocument {
         };
         rig.free_translating_joints();
         rig.tie_goals();
+        rig.note_clip_places();
         rig
     }
 

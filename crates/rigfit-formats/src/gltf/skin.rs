@@ -178,5 +178,6 @@ pub(super) fn build_rig(
     };
     rig.free_translating_joints();
     rig.tie_goals();
+    rig.note_clip_places();
     Ok((rig, joint_nodes))
 }
