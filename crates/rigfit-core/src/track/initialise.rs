@@ -418,8 +418,9 @@ fn fit(tracker: &mut Tracker, start: &Pose, data: &[Point3], sigma: f64) -> f64 
     tracker.explained_share(data, sigma)
 }
 
-/// The tracker's pose with each joint that has clip places
-/// ([`crate::skeleton::Joint::clip_places`]) moved to the one that explains `data` most,
+/// The tracker's pose with each free joint that has clip places
+/// ([`crate::skeleton::Joint::clip_places`]; a joints file may have taken its freedom away)
+/// moved to the one that explains `data` most,
 /// and its share explained (one E-step at `sigma` each, as [`fit`] scores); a joint none
 /// of whose places explains more than `explained` (the pose's own share) stays.
 fn at_clip_places(tracker: &mut Tracker, explained: f64, data: &[Point3], sigma: f64) -> f64 {
@@ -428,14 +429,16 @@ fn at_clip_places(tracker: &mut Tracker, explained: f64, data: &[Point3], sigma:
     let groups: Vec<Vec<usize>> = (0..skeleton.len())
         .filter(|&j| {
             let joint = skeleton.joint(j);
-            !joint.clip_places.is_empty() && joint.tie.is_none()
+            !joint.clip_places.is_empty() && joint.tie.is_none() && joint.dof == JointDof::Free
         })
         .map(|j| {
             let count = skeleton.joint(j).clip_places.len();
             std::iter::once(j)
                 .chain((0..skeleton.len()).filter(|&f| {
                     let follower = skeleton.joint(f);
-                    follower.tie.is_some_and(|t| t.to == j) && follower.clip_places.len() == count
+                    follower.tie.is_some_and(|t| t.to == j)
+                        && follower.clip_places.len() == count
+                        && follower.dof == JointDof::Free
                 }))
                 .collect()
         })
@@ -631,12 +634,14 @@ mod tests {
         );
     }
 
-    /// A leg with clip places (here on the humanoid's thigh): where the data shows the leg
-    /// at one of them, the leg is put there; where it shows the leg as it stands, it stays.
+    /// A leg with clip places (here on the humanoid's thigh, made free): where the data
+    /// shows the leg at one of them, the leg is put there; where it shows the leg as it
+    /// stands, it stays; a thigh that may only turn is never moved to them.
     #[test]
     fn a_joint_is_put_at_the_clip_place_the_data_shows() {
         let mut rig = humanoid();
         let thigh = rig.skeleton.find("LeftUpLeg").expect("a thigh");
+        rig.skeleton.set_dof(thigh, JointDof::Free, None);
         let rest = rig.skeleton.joint(thigh).rest;
         let place = |axis: Vector3, angle: f64, drop: f64| {
             let mut at = rest;
@@ -654,6 +659,9 @@ mod tests {
         let model = ArticulatedModel::from_rig(&rig, 1500).expect("model");
         let h = model.height;
         let mut tracker = Tracker::new(model.clone(), TrackOptions::default()).expect("tracker");
+        let mut turning = model.clone();
+        turning.skeleton.set_dof(thigh, JointDof::Ball, None);
+        let mut turning = Tracker::new(turning, TrackOptions::default()).expect("tracker");
         for shown in [Some(0), Some(1), None] {
             let mut truth = model.start.clone();
             if let Some(k) = shown {
@@ -669,6 +677,10 @@ mod tests {
                 Some(k) => {
                     assert!(after > before, "{after} against {before}");
                     assert_eq!(at, places[k], "place {k}");
+                    turning.set_pose(&model.start);
+                    let kept = at_clip_places(&mut turning, before, &data, 0.03 * h);
+                    assert_eq!(kept, before, "a turning thigh stays");
+                    assert_eq!(turning.pose.local[thigh], model.start.local[thigh]);
                 }
                 None => {
                     assert_eq!(after, before);
