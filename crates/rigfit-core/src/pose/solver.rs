@@ -16,10 +16,10 @@ use crate::joint_model::limit_excess;
 use crate::kinematics::DofLayout;
 use crate::skeleton::Pose;
 
-/// Weight of the mean squared joint rotation (radians) against the mean squared stroke
-/// residual (heights) when choosing among hypotheses (measured on the tuning half: 5e-4
-/// against 2e-3 and 1e-4; at 2e-3 bending a small rig's limbs far cost more than setting
-/// their strokes aside).
+/// Weight of the mean joint rotation (radians) against the mean squared stroke residual
+/// (heights) when choosing among hypotheses (measured on the tuning half: 5e-4 against 2e-3
+/// and 1e-4 when the rotations were squared, and against 2.5e-4 and 1e-3 unsquared; at 2e-3
+/// bending a small rig's limbs far cost more than setting their strokes aside).
 const HYPOTHESIS_BEND_WEIGHT: f64 = 5e-4;
 
 /// Weight of the mean squared excess of the joints over their limits (radians) when
@@ -408,7 +408,11 @@ impl<'a> Solver<'a> {
         // joints bend either way), so among fits that explain the strokes equally, the one
         // that bends the joints least away from the start pose wins. A joint that turns a
         // drawn bone bends for its stroke; one above the drawn chains (a spine twisted so the
-        // other arm takes an arm's stroke) costs more.
+        // other arm takes an arm's stroke) costs more. A joint's bend costs its angle, not
+        // its square: the preference then favours bending the few joints the strokes ask
+        // for over spreading a bend across many, and a limb drawn far may bend far (squared,
+        // raising one leg to the side cost a small rig more than setting the leg's stroke
+        // aside; BENCHMARKS.md).
         let mut on_chain = vec![false; setup.skeleton.len()];
         for (chain, _) in assignment.iter().flatten() {
             chain.iter().for_each(|&b| on_chain[bones[b].joint] = true);
@@ -428,7 +432,7 @@ impl<'a> Solver<'a> {
             } else {
                 ABOVE_CHAIN_BEND_FACTOR
             };
-            bend += factor * angle * angle;
+            bend += factor * angle;
             if let Some(limits) = &joint.limits {
                 let relative = (joint.rest.rotation.inverse() * rotation).scaled_axis();
                 outside += limit_excess(&joint.dof, limits, &relative).norm_squared();
