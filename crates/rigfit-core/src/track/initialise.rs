@@ -2,8 +2,9 @@
 //! whichever way they face: hypotheses of position and heading about the model's up axis,
 //! each refined by the tracker's own EM (eq. 17, M-step eq. 20) with only the root free at a
 //! wide `sigma`; then the best few refined with every joint free, `sigma` annealed from wide
-//! to the noise level; the hypothesis whose final E-step explains the most data wins, unless
-//! the winner turned half about its own up axis explains more.
+//! to the noise level (joints the rig's clips translate tried at the places the clips put
+//! them); the hypothesis whose final E-step explains the most data wins, unless the winner
+//! turned half about its own up axis explains more.
 
 use super::limb_swings::{LimbSwingOptions, swing_limbs};
 use super::{ArticulatedModel, TrackError, TrackOptions, Tracker, check_cloud, explained_share};
@@ -418,11 +419,11 @@ fn fit(tracker: &mut Tracker, start: &Pose, data: &[Point3], sigma: f64) -> f64 
     tracker.explained_share(data, sigma)
 }
 
-/// The tracker's pose with each free joint that has clip places
-/// ([`crate::skeleton::Joint::clip_places`]; a joints file may have taken its freedom away)
-/// moved to the one that explains `data` most,
-/// and its share explained (one E-step at `sigma` each, as [`fit`] scores); a joint none
-/// of whose places explains more than `explained` (the pose's own share) stays.
+/// Moves each free joint that has clip places ([`crate::skeleton::Joint::clip_places`]; a
+/// joints file may have fixed it), with the joints tied to it, to the place that explains
+/// `data` most (one E-step at `sigma` each, as [`fit`] scores), and returns the tracker's
+/// new share explained; a joint none of whose places explains more than `explained` (the
+/// pose's own share) stays where it is.
 fn at_clip_places(tracker: &mut Tracker, explained: f64, data: &[Point3], sigma: f64) -> f64 {
     let skeleton = &tracker.model.skeleton;
     // Each joint that leads its places, with the joints tied to it that follow.
