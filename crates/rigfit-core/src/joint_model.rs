@@ -6,7 +6,7 @@
 //! model joint by joint. Posing keeps every joint's DOF unless a joints file says otherwise
 //! and uses limits only to choose among poses that explain the strokes alike. Joints the
 //! clips tie to another joint (an IK goal at the end of an arm, [`crate::Rig::tie_goals`])
-//! are held there by the tracker ([`Ties`]).
+//! are held there by the tracker (`Ties`).
 
 use crate::animation::{Animation, ChannelTarget, Interpolation, quat_from_xyzw};
 use crate::kinematics::{DofLayout, ForwardKinematics};

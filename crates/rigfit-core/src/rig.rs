@@ -151,7 +151,7 @@ impl Rig {
     /// Ties each free joint that carries joints of its own and whose clips translate it (an
     /// IK goal with a hand below it) to the joint its clips keep it at: over the rest pose
     /// and every clip, its origin stays at one place in that joint's frame (within
-    /// [`TIE_TOLERANCE`] of the height), the joint neither above nor below it. mrfixit's
+    /// 0.2% of the height), the joint neither above nor below it. mrfixit's
     /// hands hang from IK goals that the clips move with the ends of its arms; nothing in
     /// the skeleton says so, and tracked without the tie the hands float free of the arms.
     /// Among joints that qualify, the nearest wins. Call after
