@@ -12,7 +12,7 @@
 //!   solves (see `api::run_blocking`).
 //!
 //! hyper answers some malformed requests itself (400, 414, 431) with an empty body, below
-//! the router's layers; [`Guarded`] gives those answers the API's `{"error": ...}` shape.
+//! the router's layers; `Guarded` gives those answers the API's `{"error": ...}` shape.
 
 use std::future::Future;
 use std::io;

@@ -35,7 +35,7 @@ pub use error::ApiError;
 #[derive(Debug, Clone)]
 pub struct ServerConfig {
     /// Answer only requests addressed to this machine by a loopback name (`Host:` localhost,
-    /// 127.x.x.x or [::1]), so that a web page elsewhere cannot reach the server through a
+    /// 127.x.x.x or `[::1]`), so that a web page elsewhere cannot reach the server through a
     /// DNS name that points here. True unless the server listens on other addresses.
     pub loopback_only: bool,
     /// How many reads, solves and writes run at once (the rest queue).

@@ -15,7 +15,7 @@
 //! - [`scenario`]: the named ways of drawing cases ([`Scenario`]) and the deterministic
 //!   case of a rig, scenario and index ([`generate_case`]), over the generator of
 //!   `rigfit_core::pose::sketch` and [`targets`].
-//! - [`sweep`]: every chosen case solved, with its errors ([`Outcome`]); [`sweep::limb_motion`].
+//! - [`mod@sweep`]: every chosen case solved, with its errors ([`Outcome`]); [`sweep::limb_motion`].
 //! - [`report`]: tables per rig and per half, the worst cases, the held-out check.
 //! - [`symmetry`]: a rig's own geometric symmetries (turns that map its body onto itself
 //!   with joints relabelled), up to which tracking is judged ([`track_corpus`]).
