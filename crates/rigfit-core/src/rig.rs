@@ -24,6 +24,11 @@ const TIE_SAMPLES: usize = 32;
 /// real rig: mrfixit needs 5,000) gets no ties rather than minutes of work.
 const TIE_BUDGET: usize = 50_000_000;
 
+/// The most joint transforms sampled from the clips that the search for ties (a world
+/// matrix per joint and sample) or for clip places (a local transform per carrier and
+/// sample) holds at once: about 250 MB of world matrices. mrfixit holds under 3,000.
+const SAMPLED_TRANSFORMS_BUDGET: usize = 2_000_000;
+
 /// At most this many clip places are noted per joint ([`Rig::note_clip_places`]), each
 /// at least [`CLIP_PLACE_APART`] from the others and from rest, where a radian of turn
 /// counts [`CLIP_PLACE_TURN`] of the height.
@@ -160,26 +165,17 @@ impl Rig {
         let skeleton = &self.skeleton;
         let n = skeleton.len();
         let tolerance = TIE_TOLERANCE * self.height().max(1e-12);
-        let mut translated = vec![false; n];
-        for channel in self.animations.iter().flat_map(|a| &a.channels) {
-            if channel.target == ChannelTarget::Translation && channel.joint < n {
-                translated[channel.joint] = true;
-            }
-        }
         let goals: Vec<usize> = (0..n)
-            .filter(|&j| {
-                let joint = skeleton.joint(j);
-                joint.dof == JointDof::Free
-                    && joint.parent.is_some()
-                    && translated[j]
-                    && !skeleton.children(j).is_empty()
-            })
+            .zip(self.translating_carriers())
+            .filter_map(|(j, carries)| carries.then_some(j))
             .collect();
         if goals.is_empty() {
             return 0;
         }
         let samples = 1 + self.animations.len().saturating_mul(TIE_SAMPLES);
-        if goals.len().saturating_mul(n).saturating_mul(samples) > TIE_BUDGET {
+        if goals.len().saturating_mul(n).saturating_mul(samples) > TIE_BUDGET
+            || n.saturating_mul(samples) > SAMPLED_TRANSFORMS_BUDGET
+        {
             tracing::warn!(
                 "{} free joints, {n} joints and {} clips: too many to look for IK goals' ties",
                 goals.len(),
@@ -190,13 +186,7 @@ impl Rig {
         // The world transforms of the rest pose and of every clip's samples.
         let rest = skeleton.rest_pose();
         let mut worlds = vec![skeleton.world_matrices(&rest)];
-        for clip in &self.animations {
-            let (start, duration) = (clip.start(), clip.duration());
-            for k in 0..TIE_SAMPLES {
-                let t = start + duration * k as f64 / (TIE_SAMPLES - 1) as f64;
-                worlds.push(skeleton.world_matrices(&clip.sample(&rest, t)));
-            }
-        }
+        self.for_each_clip_sample(&rest, |pose| worlds.push(skeleton.world_matrices(pose)));
         let origin = crate::math::translation_part;
         let mut ties = Vec::new();
         for &goal in &goals {
@@ -261,21 +251,7 @@ impl Rig {
         let skeleton = &self.skeleton;
         let n = skeleton.len();
         let size = self.height().max(1e-12);
-        let mut translated = vec![false; n];
-        for channel in self.animations.iter().flat_map(|a| &a.channels) {
-            if channel.target == ChannelTarget::Translation && channel.joint < n {
-                translated[channel.joint] = true;
-            }
-        }
-        let carries: Vec<bool> = (0..n)
-            .map(|j| {
-                let joint = skeleton.joint(j);
-                joint.dof == JointDof::Free
-                    && joint.parent.is_some()
-                    && translated[j]
-                    && !skeleton.children(j).is_empty()
-            })
-            .collect();
+        let carries = self.translating_carriers();
         // Each leader with the joints tied to it.
         let groups: Vec<(usize, Vec<usize>)> = (0..n)
             .filter(|&j| carries[j] && skeleton.joint(j).tie.is_none())
@@ -290,15 +266,25 @@ impl Rig {
         if groups.is_empty() || samples == 0 || n.saturating_mul(samples) > TIE_BUDGET {
             return 0;
         }
-        let rest = skeleton.rest_pose();
-        let mut poses: Vec<Pose> = Vec::with_capacity(samples);
-        for clip in &self.animations {
-            let (start, duration) = (clip.start(), clip.duration());
-            for k in 0..TIE_SAMPLES {
-                let t = start + duration * k as f64 / (TIE_SAMPLES - 1) as f64;
-                poses.push(clip.sample(&rest, t));
-            }
+        // Per sample, the local transforms of the grouped joints alone (in `joints` order).
+        let joints: Vec<usize> = groups
+            .iter()
+            .flat_map(|(leader, tied)| std::iter::once(*leader).chain(tied.iter().copied()))
+            .collect();
+        if joints.len().saturating_mul(samples) > SAMPLED_TRANSFORMS_BUDGET {
+            tracing::warn!(
+                "{} translating limb carriers and {} clips: too many to note their clip places",
+                joints.len(),
+                self.animations.len()
+            );
+            return 0;
         }
+        let rest = skeleton.rest_pose();
+        let mut poses: Vec<Vec<Trs>> = Vec::with_capacity(samples);
+        self.for_each_clip_sample(&rest, |pose| {
+            poses.push(joints.iter().map(|&j| pose.local[j]).collect());
+        });
+        let column = |j: usize| joints.iter().position(|&k| k == j).unwrap_or(0);
         // Apart: the translations' distance in heights plus the turn between them.
         let apart = |a: &Trs, b: &Trs| {
             (a.translation - b.translation).norm() / size
@@ -306,11 +292,12 @@ impl Rig {
         };
         let mut noted = 0;
         for (leader, tied) in groups {
+            let at = column(leader);
             // Farthest first, from the rest transform.
             let mut chosen: Vec<usize> = Vec::new();
             let mut nearest: Vec<f64> = poses
                 .iter()
-                .map(|p| apart(&p.local[leader], &rest.local[leader]))
+                .map(|p| apart(&p[at], &rest.local[leader]))
                 .collect();
             while chosen.len() < CLIP_PLACES {
                 let Some((k, &d)) = nearest.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))
@@ -321,21 +308,55 @@ impl Rig {
                     break;
                 }
                 chosen.push(k);
-                let place = poses[k].local[leader];
+                let place = poses[k][at];
                 for (m, p) in nearest.iter_mut().zip(&poses) {
-                    *m = m.min(apart(&p.local[leader], &place));
+                    *m = m.min(apart(&p[at], &place));
                 }
             }
             if chosen.is_empty() {
                 continue;
             }
             for j in std::iter::once(leader).chain(tied) {
-                let places = chosen.iter().map(|&k| poses[k].local[j]).collect();
+                let places = chosen.iter().map(|&k| poses[k][column(j)]).collect();
                 self.skeleton.set_clip_places(j, places);
                 noted += 1;
             }
         }
         noted
+    }
+
+    /// For every joint, whether it is free, below a parent, carries joints and is
+    /// translated by a clip: the IK goals [`Rig::tie_goals`] looks for and the limb
+    /// carriers [`Rig::note_clip_places`] samples.
+    fn translating_carriers(&self) -> Vec<bool> {
+        let skeleton = &self.skeleton;
+        let n = skeleton.len();
+        let mut translated = vec![false; n];
+        for channel in self.animations.iter().flat_map(|a| &a.channels) {
+            if channel.target == ChannelTarget::Translation && channel.joint < n {
+                translated[channel.joint] = true;
+            }
+        }
+        (0..n)
+            .map(|j| {
+                let joint = skeleton.joint(j);
+                joint.dof == JointDof::Free
+                    && joint.parent.is_some()
+                    && translated[j]
+                    && !skeleton.children(j).is_empty()
+            })
+            .collect()
+    }
+
+    /// Calls `f` with each clip sampled from `base` at [`TIE_SAMPLES`] evenly spaced times.
+    fn for_each_clip_sample(&self, base: &Pose, mut f: impl FnMut(&Pose)) {
+        for clip in &self.animations {
+            let (start, duration) = (clip.start(), clip.duration());
+            for k in 0..TIE_SAMPLES {
+                let t = start + duration * k as f64 / (TIE_SAMPLES - 1) as f64;
+                f(&clip.sample(base, t));
+            }
+        }
     }
 
     /// Gives every leaf skin joint whose skin hangs to one side of it (a limb box of a
@@ -745,6 +766,45 @@ mod tests {
             rig.skeleton.joint(2).clip_places.is_empty(),
             "the legs do not translate"
         );
+    }
+
+    /// A hip node a clip drops, in so many clips that their samples would exceed what the
+    /// searches may hold: no clip places and no ties, at once.
+    #[test]
+    fn too_many_clip_samples_get_no_places() {
+        let at = |x: f64, y: f64| Trs::from_translation(Vector3::new(x, y, 0.0));
+        let mut joints = vec![
+            Joint::new("Body", None, at(0.0, 1.0)),
+            Joint::new("Hip", Some(0), at(0.0, 0.0)),
+            Joint::new("Leg", Some(1), at(0.0, -0.5)),
+        ];
+        joints[1].kind = JointKind::Helper;
+        let mut skeleton = Skeleton::new(joints).expect("a tree");
+        skeleton.set_default_dofs();
+        let pose = skeleton.rest_pose();
+        let clip = Animation {
+            name: "sit".into(),
+            channels: vec![AnimationChannel {
+                joint: 1,
+                target: ChannelTarget::Translation,
+                interpolation: Interpolation::Linear,
+                times: vec![0.0, 1.0],
+                values: vec![[0.0; 4], [0.0, -0.5, 0.0, 0.0]],
+            }],
+            frame_time: None,
+        };
+        let clips = SAMPLED_TRANSFORMS_BUDGET / TIE_SAMPLES + 1;
+        let mut rig = Rig {
+            skeleton,
+            pose,
+            meshes: Vec::new(),
+            animations: vec![clip; clips],
+        };
+        assert_eq!(rig.free_translating_joints(), 1);
+        assert_eq!(rig.tie_goals(), 0);
+        assert_eq!(rig.note_clip_places(), 0);
+        rig.animations.truncate(1);
+        assert_eq!(rig.note_clip_places(), 1, "one clip is few enough");
     }
 
     /// Thousands of translated free joints are too many to look for ties in: none is

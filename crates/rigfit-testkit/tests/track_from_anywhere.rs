@@ -41,12 +41,16 @@ fn a_held_out_mocap_skeleton_is_found_and_tracked_from_its_rest_pose() {
     corpus_take_within_bounds("assimp-boxing_toes", 0);
 }
 
+/// The take of corpus rig `id` moved by `seed`'s rigid motion.
+fn moved_corpus_take(id: &str, seed: u64) -> MovedSequence {
+    let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
+    corpus_sequence(&corpus, id, seed, &SequenceOptions::default()).expect("sequence")
+}
+
 /// A corpus rig (`id`) moved by `seed`'s rigid motion, tracked from its rest pose
 /// within the bounds; the take's outcome.
 fn corpus_take_within_bounds(id: &str, seed: u64) -> TakeOutcome {
-    let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
-    let sequence =
-        corpus_sequence(&corpus, id, seed, &SequenceOptions::default()).expect("sequence");
+    let sequence = moved_corpus_take(id, seed);
     let outcome = track_sequence(&sequence, &TakeSettings::default()).expect("tracks");
     assert_within_bounds(id, &outcome);
     outcome
@@ -90,9 +94,7 @@ fn a_held_out_flat_hand_turned_over_is_found_palm_for_palm() {
     // The Adroit hand lies flat: with its fingers at rest, every placement's root-alone fit
     // lands it back for palm (8.5% at the first frame when measured). The winner turned
     // half about its own up axis and fitted again explains more and wins (0.91%).
-    let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
-    let sequence = corpus_sequence(&corpus, "gymr-adroit_hand", 1, &SequenceOptions::default())
-        .expect("sequence");
+    let sequence = moved_corpus_take("gymr-adroit_hand", 1);
     let mut settings = TakeSettings::default();
     let mut first = Vec::new();
     for half_turn in [true, false] {
@@ -115,9 +117,7 @@ fn a_held_out_robot_sitting_with_its_legs_dropped_to_the_floor_is_found() {
     // from the rest pose (9.7% at the first frame when measured, the legs hung through the
     // floor). Tried at the places its clips put them (the rig's own clip places), the hips
     // drop and the take is found (1.6%).
-    let corpus = Corpus::load().unwrap_or_else(|e| panic!("{e}"));
-    let sequence = corpus_sequence(&corpus, "minetest-maidroid", 1, &SequenceOptions::default())
-        .expect("sequence");
+    let sequence = moved_corpus_take("minetest-maidroid", 1);
     let mut settings = TakeSettings::default();
     let with = track_sequence(&sequence, &settings).expect("tracks");
     assert_within_bounds("minetest-maidroid", &with);
