@@ -13,7 +13,7 @@ import pytest
 import rigfit
 from conftest import REPO, asset
 
-OPTIONS = ["patch_radius", "outliers", "rigidity", "iterations", "merge", "coarse"]
+OPTIONS = ["patch_radius", "outliers", "rigidity", "iterations", "merge", "coarse", "fast_motion"]
 
 
 def sphere(rings=12, segments=16, radius=1.0):
@@ -42,7 +42,8 @@ def sphere(rings=12, segments=16, radius=1.0):
 def test_the_defaults_are_the_command_lines_in_the_signature_and_the_stubs():
     v, f = sphere()
     options = rigfit.SurfaceTracker(v, f).options
-    assert options == {"patch_radius": 0.06, "outliers": 0.15, "rigidity": 4.0, "iterations": 25, "merge": 0.0, "coarse": 4}
+    assert options == {"patch_radius": 0.06, "outliers": 0.15, "rigidity": 4.0, "iterations": 25, "merge": 0.0, "coarse": 4,
+                       "fast_motion": False}
     signature = inspect.signature(rigfit.SurfaceTracker)
     assert {k: signature.parameters[k].default for k in OPTIONS} == options
     stubs = ast.parse(Path(rigfit.__file__).with_name("__init__.pyi").read_text())
@@ -75,6 +76,16 @@ def test_tracks_a_moved_sphere_and_reports_the_fit():
         assert fit.rms >= 0 and fit.sigma > 0 and fit.seconds > 0
     assert np.array_equal(tracker.vertices, fits[-1].vertices)
     assert "SurfaceFit(" in repr(fits[0]) and "patches" in repr(tracker)
+
+
+def test_fast_motion_is_an_option_of_its_own():
+    v, f = sphere()
+    tracker = rigfit.SurfaceTracker(v, f, fast_motion=True, coarse=2)
+    assert tracker.options["fast_motion"] is True and tracker.options["coarse"] == 2
+    moved = v + [0.02, 0.01, 0.0]
+    for _ in range(2):
+        fit = tracker.track(moved, faces=f)
+        assert np.abs(fit.vertices - moved).max() < 0.01
 
 
 @pytest.mark.parametrize(
@@ -216,7 +227,8 @@ def test_the_command_line_writes_the_same_vertices_as_python(sequence):
     o = sequence["tracker"].options
     args = [str(binary), "surface", str(folder / "reference.ply"), *map(str, sequence["frames"]), "-o", str(out),
             "--patch-radius", str(o["patch_radius"]), "--outliers", str(o["outliers"]), "--rigidity", str(o["rigidity"]),
-            "--iterations", str(o["iterations"]), "--merge", str(o["merge"]), "--coarse", str(o["coarse"])]
+            "--iterations", str(o["iterations"]), "--merge", str(o["merge"]), "--coarse", str(o["coarse"]),
+            *(["--fast-motion"] if o["fast_motion"] else [])]
     run = subprocess.run(args, capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, f"{binary}: {run.stderr}"
     for k, fit in enumerate(sequence["fits"]):

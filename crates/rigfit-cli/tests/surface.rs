@@ -182,6 +182,37 @@ fn tracks_two_objects_over_a_floor_and_writes_every_frame() {
 }
 
 #[test]
+fn fast_motion_tracks_the_same_scene() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (reference, frames, truths) = write_scene(dir.path(), 4);
+    let out = dir.path().join("out");
+    let mut args = vec!["surface", s(&reference)];
+    args.extend(frames.iter().map(|p| s(p)));
+    args.extend(["-o", s(&out), "--fast-motion"]);
+    let o = rigfit(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let reference_mesh = read_ply(&reference).expect("reference");
+    let diagonal = reference_mesh.bounds().expect("bounds").diagonal();
+    for (f, truth) in truths.iter().enumerate() {
+        let fitted = read_ply(&out.join(format!("frame_{f:05}.ply"))).expect("output frame");
+        let mean = fitted
+            .vertices
+            .iter()
+            .zip(truth)
+            .map(|(a, b)| (a - b).norm())
+            .sum::<f64>()
+            / truth.len() as f64;
+        assert!(mean < 0.015 * diagonal, "frame {f}: mean error {mean}");
+    }
+    // A bad value after it is still named.
+    let mut args = vec!["surface", s(&reference), s(&frames[0])];
+    args.extend(["-o", s(&out), "--fast-motion", "--coarse", "0"]);
+    let o = rigfit(&args);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--coarse"), "{}", stderr(&o));
+}
+
+#[test]
 fn surface_subcommand_usage_is_listed() {
     let o = rigfit(&["surface", "--help"]);
     assert!(o.status.success());

@@ -101,13 +101,16 @@ impl PySurfaceFit {
 /// bounding-box diagonal, 0.0001 to 10), ``outliers`` (expected fraction of outlier points,
 /// in [0, 1)), ``rigidity`` (weight of the rigidity between neighbouring patches, >= 0),
 /// ``iterations`` (EM iterations per frame at most, 1 to 1000), ``merge`` (merge each
-/// frame's points by cubes of this many point spacings first; 0: every point, >= 0) and
-/// ``coarse`` (a frame's first two iterations use one point in this many, 1 to 1024).
+/// frame's points by cubes of this many point spacings first; 0: every point, >= 0),
+/// ``coarse`` (a frame's first iterations, two or four with ``fast_motion``, use one point
+/// in this many, 1 to 1024) and ``fast_motion`` (``--fast-motion``: for limbs that move a
+/// tenth of the object or more between frames, at about twice the time on such frames).
 #[pyclass(module = "rigfit", name = "SurfaceTracker")]
 #[derive(Debug)]
 pub struct PySurfaceTracker {
     tracker: SurfaceTracker,
     triangles: Vec<[u32; 3]>,
+    fast_motion: bool,
 }
 
 #[pymethods]
@@ -125,7 +128,8 @@ impl PySurfaceTracker {
         iterations = SurfaceOptions::default().max_iterations,
         merge = SurfaceOptions::default().merge_cell,
         coarse = SurfaceOptions::default().coarse_stride,
-    ), text_signature = "(vertices, faces, *, patch_radius=0.06, outliers=0.15, rigidity=4.0, iterations=25, merge=0.0, coarse=4)")]
+        fast_motion = false,
+    ), text_signature = "(vertices, faces, *, patch_radius=0.06, outliers=0.15, rigidity=4.0, iterations=25, merge=0.0, coarse=4, fast_motion=False)")]
     fn new(
         py: Python<'_>,
         vertices: &Bound<'_, PyAny>,
@@ -136,8 +140,13 @@ impl PySurfaceTracker {
         #[pyo3(from_py_with = iterations)] iterations: usize,
         #[pyo3(from_py_with = merge)] merge: f64,
         #[pyo3(from_py_with = coarse)] coarse: usize,
+        fast_motion: bool,
     ) -> PyResult<Self> {
-        let mut options = SurfaceOptions::default();
+        let mut options = if fast_motion {
+            SurfaceOptions::fast_motion()
+        } else {
+            SurfaceOptions::default()
+        };
         options.patches.radius = patch_radius;
         options.data.outlier_ratio = outliers;
         options.rigidity = rigidity;
@@ -163,6 +172,7 @@ impl PySurfaceTracker {
         Ok(Self {
             tracker,
             triangles: reference.triangles,
+            fast_motion,
         })
     }
 
@@ -228,7 +238,7 @@ impl PySurfaceTracker {
     }
 
     /// The options in force, by keyword (``patch_radius``, ``outliers``, ``rigidity``,
-    /// ``iterations``, ``merge``, ``coarse``).
+    /// ``iterations``, ``merge``, ``coarse``, ``fast_motion``).
     #[getter]
     fn options<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let o = &self.tracker.options;
@@ -239,6 +249,7 @@ impl PySurfaceTracker {
         d.set_item("iterations", o.max_iterations)?;
         d.set_item("merge", o.merge_cell)?;
         d.set_item("coarse", o.coarse_stride)?;
+        d.set_item("fast_motion", self.fast_motion)?;
         Ok(d)
     }
 }

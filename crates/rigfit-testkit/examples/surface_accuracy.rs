@@ -95,6 +95,7 @@ fn main() {
             "rigfit (+ motion continued, narrower first kernel)",
             SurfaceOptions::default(),
         ),
+        ("rigfit --fast-motion", SurfaceOptions::fast_motion()),
         (
             "rigfit, every point in every iteration",
             SurfaceOptions {

@@ -8,7 +8,7 @@
 //!
 //! `cargo run --release -p rigfit-testkit --example surface_corpus`
 //! (`SEEDS=N` seeds 0..N, default 1; `OBJECTS=id,id` some objects; `PAPER=1` the paper's
-//! method; `NO_LINKS=1` without contact links; `NO_CARRY=1` without carrying unseen
+//! method; `FAST_MOTION=1` `SurfaceOptions::fast_motion`; `NO_LINKS=1` without contact links; `NO_CARRY=1` without carrying unseen
 //! patches; `SIGMA`, `ANNEAL`, `ITERATIONS`, `MERGE`, `TOLERANCE`, `STRIDE`, `CANDIDATES`,
 //! `CUTOFF`, `HOLD`, `COARSE_ITERATIONS`, `FAST`, `COARSE_STIFFNESS`, `ANCHOR`, `STIFFNESS`,
 //! `CONTACT_WIDTH`, `PART_GAP` set those options; `VERBOSE=1` every frame's mean and worst
@@ -43,6 +43,8 @@ fn main() {
         .map(|s| s.split(',').map(str::to_string).collect());
     let mut options = if std::env::var("PAPER").is_ok() {
         SurfaceOptions::paper()
+    } else if std::env::var("FAST_MOTION").is_ok() {
+        SurfaceOptions::fast_motion()
     } else {
         SurfaceOptions::default()
     };

@@ -272,6 +272,7 @@ class SurfaceTracker:
         iterations: int = 25,
         merge: float = 0.0,
         coarse: int = 4,
+        fast_motion: bool = False,
     ) -> None:
         """The reference: ``vertices`` (n, 3), ``faces`` (k, 3) vertex indices (required:
         they give the patches). The options, defaults and bounds are ``rigfit surface``'s:
@@ -279,7 +280,9 @@ class SurfaceTracker:
         10), ``outliers`` (expected outlier fraction, [0, 1)), ``rigidity`` (>= 0),
         ``iterations`` (EM iterations per frame at most, 1 to 1000), ``merge`` (merge each
         frame's points by cubes of this many point spacings; 0: off), ``coarse`` (the first
-        two iterations use one point in this many, 1 to 1024)."""
+        iterations, two or four with ``fast_motion``, use one point in this many, 1 to
+        1024), ``fast_motion`` (``--fast-motion``: for limbs that move a tenth of the object
+        or more between frames, at about twice the time on such frames)."""
     def track(
         self,
         points: ArrayLike,

@@ -298,9 +298,10 @@ fn add_rigidity(
     for pair in &system.rigidity_pairs {
         let (k, l, moments) = (pair.k, pair.l, &pair.moments);
         let (rk, rl) = (&pose.rotation[k], &pose.rotation[l]);
-        let w = match pair.contact {
-            Some(_) => weights.rigidity,
-            None => weights.rigidity * weights.within_pieces,
+        let w = if pair.small_piece {
+            weights.rigidity * weights.within_pieces
+        } else {
+            weights.rigidity
         };
         let block = |scale: f64, moments: &OffsetMoments, ra: &Matrix3, rb: &Matrix3| {
             let mut block: Block6 = [0.0; 36];

@@ -4,6 +4,7 @@
 
 use super::block_moments::{OffsetMoments, contact_moments, member_moments, rigidity_pair_moments};
 use crate::engine::linear_algebra::{BlockPattern, SolveError};
+use crate::geometry::Aabb;
 use crate::surface::model::PatchModel;
 
 /// Pairs of blended patches whose share of a vertex's data term is at most this
@@ -39,10 +40,20 @@ pub(super) struct RigidityPair {
     pub(super) k: usize,
     pub(super) l: usize,
     /// The contact link it comes from (an index into `PatchModel::contacts`), or `None`
-    /// for neighbouring patches of one piece.
+    /// for neighbouring patches of one piece (read by the vertex-by-vertex reference in the
+    /// tests).
+    #[cfg_attr(not(test), allow(dead_code))]
     pub(super) contact: Option<usize>,
+    /// Whether the pair's piece is a part of the object (its extent at most
+    /// [`SMALL_PIECE`] of the reference's diagonal: a link, a limb's capsule), which the
+    /// first iterations hold nearly rigid, rather than a body that bends as a whole.
+    pub(super) small_piece: bool,
     pub(super) moments: [OffsetMoments; 3],
 }
+
+/// A piece is a part of the object when its extent is at most this fraction of the
+/// reference's bounding-box diagonal.
+pub const SMALL_PIECE: f64 = 0.5;
 
 /// The M-step's block-sparse normal equations for one patch model: the block pattern (the
 /// patch graph, with its reusable symbolic factorisation) and the weights of each block the
@@ -116,6 +127,23 @@ impl PatchSystem {
             }
             pair_start.push(pairs.len() as u32);
         }
+        // Each piece's extent, from its patches' vertices.
+        let pieces = model
+            .component
+            .iter()
+            .map(|&c| c as usize + 1)
+            .max()
+            .unwrap_or(0);
+        let mut piece_points: Vec<Vec<crate::math::Point3>> = vec![Vec::new(); pieces];
+        for (k, members) in model.members.iter().enumerate() {
+            let piece = model.component[k] as usize;
+            piece_points[piece].extend(members.iter().map(|&v| model.rest[v as usize]));
+        }
+        let bounds: Vec<Option<Aabb>> = piece_points.iter().map(Aabb::from_points).collect();
+        let small: Vec<bool> = bounds
+            .iter()
+            .map(|b| b.is_some_and(|b| b.diagonal() <= SMALL_PIECE * model.diagonal))
+            .collect();
         let rigidity_pairs = model
             .neighbour_pairs()
             .into_iter()
@@ -123,6 +151,7 @@ impl PatchSystem {
                 k,
                 l,
                 contact: None,
+                small_piece: small[model.component[k] as usize],
                 moments: rigidity_pair_moments(model, k, l),
             })
             .chain(
@@ -134,6 +163,7 @@ impl PatchSystem {
                         k: link.k as usize,
                         l: link.l as usize,
                         contact: Some(i),
+                        small_piece: false,
                         moments: contact_moments(model, link),
                     }),
             )

@@ -139,51 +139,59 @@ pub fn reference_step(
     let rigidity: Vec<PairTerms> = system
         .rigidity_pairs
         .par_iter()
-        .map(|&RigidityPair { k, l, contact, .. }| {
-            let mut b = [[0.0; 36]; 3];
-            let mut g = [0.0; 12];
-            // A contact link's vertices and weight, or both patches' vertices and weights
-            // alpha_k(v) + alpha_l(v).
-            let vertices: Vec<(usize, f64)> = match contact {
-                Some(i) => {
-                    let link = &model.contacts[i];
-                    link.vertices
+        .map(
+            |&RigidityPair {
+                 k,
+                 l,
+                 contact,
+                 small_piece,
+                 ..
+             }| {
+                let mut b = [[0.0; 36]; 3];
+                let mut g = [0.0; 12];
+                // A contact link's vertices and weight, or both patches' vertices and weights
+                // alpha_k(v) + alpha_l(v).
+                let vertices: Vec<(usize, f64)> = match contact {
+                    Some(i) => {
+                        let link = &model.contacts[i];
+                        link.vertices
+                            .iter()
+                            .map(|&v| (v as usize, link.weight))
+                            .collect()
+                    }
+                    None => model.members[k]
                         .iter()
-                        .map(|&v| (v as usize, link.weight))
-                        .collect()
+                        .chain(&model.members[l])
+                        .map(|&v| {
+                            let v = v as usize;
+                            (v, model.alpha(k, v) + model.alpha(l, v))
+                        })
+                        .collect(),
+                };
+                let scale = if small_piece {
+                    weights.within_pieces
+                } else {
+                    1.0
+                };
+                for (v, beta) in vertices {
+                    let beta = weights.rigidity * scale * beta;
+                    let qk = model.offset(pose, k, v);
+                    let ql = model.offset(pose, l, v);
+                    let r = (pose.centre[k] + qk) - (pose.centre[l] + ql);
+                    add_jtj(&mut b[0], beta, &qk, &qk);
+                    add_jtj(&mut b[1], beta, &ql, &ql);
+                    add_jtj(&mut b[2], -beta, &qk, &ql);
+                    add_jtr(&mut g[..6], beta, &qk, &r);
+                    add_jtr(&mut g[6..], -beta, &ql, &r);
                 }
-                None => model.members[k]
-                    .iter()
-                    .chain(&model.members[l])
-                    .map(|&v| {
-                        let v = v as usize;
-                        (v, model.alpha(k, v) + model.alpha(l, v))
-                    })
-                    .collect(),
-            };
-            let scale = if contact.is_some() {
-                1.0
-            } else {
-                weights.within_pieces
-            };
-            for (v, beta) in vertices {
-                let beta = weights.rigidity * scale * beta;
-                let qk = model.offset(pose, k, v);
-                let ql = model.offset(pose, l, v);
-                let r = (pose.centre[k] + qk) - (pose.centre[l] + ql);
-                add_jtj(&mut b[0], beta, &qk, &qk);
-                add_jtj(&mut b[1], beta, &ql, &ql);
-                add_jtj(&mut b[2], -beta, &qk, &ql);
-                add_jtr(&mut g[..6], beta, &qk, &r);
-                add_jtr(&mut g[6..], -beta, &ql, &r);
-            }
-            PairTerms {
-                k,
-                l,
-                blocks: b,
-                gradient: g,
-            }
-        })
+                PairTerms {
+                    k,
+                    l,
+                    blocks: b,
+                    gradient: g,
+                }
+            },
+        )
         .collect();
     // Pairs are (k, l) with k < l: the cross block is stored as it is.
     for PairTerms {
@@ -349,4 +357,43 @@ fn check_moment_assembly(reference: &TriMesh) {
             );
         }
     }
+}
+
+/// A piece at most half the object's diagonal across is a part of it (a link, a limb's
+/// capsule), held nearly rigid in the first iterations by `within_pieces`; a piece that
+/// spans the object (a skinned body) bends from the start.
+#[test]
+fn only_the_parts_of_an_object_are_held_rigid_first() {
+    let body = torus(30, 15);
+    let mut object = body.clone();
+    let count = object.vertices.len();
+    object.vertices.extend(
+        body.vertices
+            .iter()
+            .map(|p| Point3::from(p.coords * 0.2) + Vector3::new(1.6, 0.0, 0.0)),
+    );
+    object
+        .triangles
+        .extend(body.triangles.iter().map(|t| t.map(|i| i + count as u32)));
+    object.normals = None;
+    let model = PatchModel::new(&object, &PatchOptions::default()).expect("model");
+    let system = PatchSystem::new(&model).expect("system");
+    let part = model.component[model.vertex_patch[count] as usize];
+    let within: Vec<_> = system
+        .rigidity_pairs
+        .iter()
+        .filter(|pair| pair.contact.is_none())
+        .collect();
+    assert!(within.iter().any(|pair| pair.small_piece));
+    assert!(within.iter().any(|pair| !pair.small_piece));
+    for pair in within {
+        assert_eq!(pair.small_piece, model.component[pair.k] == part);
+    }
+    // Contact links keep their own weight.
+    assert!(
+        system
+            .rigidity_pairs
+            .iter()
+            .all(|pair| pair.contact.is_none() || !pair.small_piece)
+    );
 }
