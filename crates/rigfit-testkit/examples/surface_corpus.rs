@@ -34,13 +34,8 @@ fn main() {
             std::process::exit(2);
         }
     };
-    let seeds: u64 = std::env::var("SEEDS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1);
-    let chosen: Option<Vec<String>> = std::env::var("OBJECTS")
-        .ok()
-        .map(|s| s.split(',').map(str::to_string).collect());
+    let seeds = env_knobs::count("SEEDS", 1) as u64;
+    let chosen = env_knobs::names("OBJECTS");
     let mut options = if std::env::var("PAPER").is_ok() {
         SurfaceOptions::paper()
     } else if std::env::var("FAST_MOTION").is_ok() {

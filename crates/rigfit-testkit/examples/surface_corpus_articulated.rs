@@ -7,6 +7,9 @@
 //! `cargo run --release -p rigfit-testkit --example surface_corpus_articulated`
 //! (`SEEDS=N` seeds 0..N, default 1; `OBJECTS=id,id` some objects)
 
+#[path = "common/env_knobs.rs"]
+mod env_knobs;
+
 use rigfit_core::track::{ArticulatedModel, TrackOptions, Tracker};
 use rigfit_testkit::surface_cases::mean_and_p95;
 use rigfit_testkit::surface_corpus::{PartsOptions, load, parts_case};
@@ -19,13 +22,8 @@ fn main() {
             std::process::exit(2);
         }
     };
-    let seeds: u64 = std::env::var("SEEDS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1);
-    let chosen: Option<Vec<String>> = std::env::var("OBJECTS")
-        .ok()
-        .map(|s| s.split(',').map(str::to_string).collect());
+    let seeds = env_knobs::count("SEEDS", 1) as u64;
+    let chosen = env_knobs::names("OBJECTS");
     println!("| object | half | seed | mean | p95 | worst frame | worst vertex | ms/frame |");
     println!("|---|---|---|---|---|---|---|---|");
     for entry in &corpus.rigs {

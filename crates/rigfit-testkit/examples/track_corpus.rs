@@ -34,13 +34,6 @@ use rigfit_testkit::track_corpus::{
 };
 use rigfit_testkit::{Corpus, Half, RigKind};
 
-fn env_usize(name: &str, default: usize) -> usize {
-    std::env::var(name)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
 /// The take's settings: the defaults, changed by the environment (see the module's
 /// documentation).
 fn settings() -> TakeSettings {
@@ -179,9 +172,9 @@ fn symmetry_lines(s: &MovedSequence) -> Vec<String> {
 }
 
 fn main() {
-    let seeds = env_usize("SEEDS", 3) as u64;
+    let seeds = env_knobs::count("SEEDS", 3) as u64;
     let settings = settings();
-    let points = env_usize("POINTS", 2000);
+    let points = env_knobs::count("POINTS", 2000);
     let verbose = std::env::var("VERBOSE").is_ok();
     let all_joints = std::env::var("VERBOSE").is_ok_and(|v| v == "2");
     let filter: Option<Vec<String>> = std::env::var("RIGS")

@@ -134,12 +134,21 @@ impl PatchSystem {
             .map(|&c| c as usize + 1)
             .max()
             .unwrap_or(0);
-        let mut piece_points: Vec<Vec<crate::math::Point3>> = vec![Vec::new(); pieces];
-        for (k, members) in model.members.iter().enumerate() {
-            let piece = model.component[k] as usize;
-            piece_points[piece].extend(members.iter().map(|&v| model.rest[v as usize]));
+        let mut piece_patches: Vec<Vec<usize>> = vec![Vec::new(); pieces];
+        for (k, &piece) in model.component.iter().enumerate() {
+            piece_patches[piece as usize].push(k);
         }
-        let bounds: Vec<Option<Aabb>> = piece_points.iter().map(Aabb::from_points).collect();
+        let bounds: Vec<Option<Aabb>> = piece_patches
+            .iter()
+            .map(|patches| {
+                Aabb::from_points(
+                    patches
+                        .iter()
+                        .flat_map(|&k| &model.members[k])
+                        .map(|&v| &model.rest[v as usize]),
+                )
+            })
+            .collect();
         let small: Vec<bool> = bounds
             .iter()
             .map(|b| b.is_some_and(|b| b.diagonal() <= SMALL_PIECE * model.diagonal))
