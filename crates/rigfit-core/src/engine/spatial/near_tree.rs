@@ -72,25 +72,22 @@ impl NearTree {
         debug_assert_eq!(points.len(), ids.len());
         let mut items: Vec<([f32; 3], u32)> =
             points.iter().copied().zip(ids.iter().copied()).collect();
-        let mut nodes = Vec::with_capacity(2 * points.len() / LEAF + 1);
-        let mut leaves = Vec::with_capacity(points.len().div_ceil(LEAF));
-        let mut boxes = Vec::with_capacity(points.len().div_ceil(LEAF));
-        if !items.is_empty() {
-            let mut low = [f32::INFINITY; 3];
-            let mut high = [f32::NEG_INFINITY; 3];
-            for (p, _) in &items {
-                for a in 0..3 {
-                    low[a] = low[a].min(p[a]);
-                    high[a] = high[a].max(p[a]);
-                }
-            }
-            build(
-                &mut items,
-                (low, high),
-                &mut nodes,
-                &mut (&mut leaves, &mut boxes),
-            );
+        if items.is_empty() {
+            return Self::default();
         }
+        let mut low = [f32::INFINITY; 3];
+        let mut high = [f32::NEG_INFINITY; 3];
+        for (p, _) in &items {
+            for a in 0..3 {
+                low[a] = low[a].min(p[a]);
+                high[a] = high[a].max(p[a]);
+            }
+        }
+        let Subtree {
+            nodes,
+            leaves,
+            boxes,
+        } = build_in_parallel(&mut items, (low, high));
         Self {
             len: points.len(),
             leaves,
@@ -195,12 +192,104 @@ fn leaf_distances(leaf: &LeafBlock, q: [f32; 3], bound: f32, d2: &mut [f32; LEAF
     below
 }
 
+/// A cell of the tree: its low and high corners.
+type Cell = ([f32; 3], [f32; 3]);
+
+/// Subtrees of at least this many points build their two halves on two threads.
+const PARALLEL_BUILD: usize = 4096;
+
+/// A subtree built on its own: its nodes (depth first, indices from its root), its leaves
+/// and their boxes.
+struct Subtree {
+    nodes: Vec<Node>,
+    leaves: Vec<LeafBlock>,
+    boxes: Vec<LeafBox>,
+}
+
+/// The tree [`build`] makes, with the halves of large cells built side by side and joined:
+/// the same nodes in the same order.
+fn build_in_parallel(items: &mut [([f32; 3], u32)], cell: Cell) -> Subtree {
+    if items.len() < PARALLEL_BUILD {
+        let mut nodes = Vec::with_capacity(2 * items.len() / LEAF + 1);
+        let mut leaves = Vec::with_capacity(items.len().div_ceil(LEAF));
+        let mut boxes = Vec::with_capacity(items.len().div_ceil(LEAF));
+        build(items, cell, &mut nodes, &mut (&mut leaves, &mut boxes));
+        return Subtree {
+            nodes,
+            leaves,
+            boxes,
+        };
+    }
+    let (root, mid, (left_cell, right_cell)) = split_cell(items, cell);
+    let (left, right) = items.split_at_mut(mid);
+    let (left, right) = rayon::join(
+        || build_in_parallel(left, left_cell),
+        || build_in_parallel(right, right_cell),
+    );
+    let mut nodes = Vec::with_capacity(1 + left.nodes.len() + right.nodes.len());
+    nodes.push(Node {
+        second: (1 + left.nodes.len()) as u32,
+        ..root
+    });
+    // Each half's node and leaf indices move by the nodes and leaves placed before it.
+    let shifted = |nodes: Vec<Node>, by_nodes: usize, by_leaves: usize| {
+        nodes.into_iter().map(move |n| {
+            if n.axis == LEAF_AXIS {
+                Node {
+                    start: n.start + by_leaves as u32,
+                    ..n
+                }
+            } else {
+                Node {
+                    second: n.second + by_nodes as u32,
+                    ..n
+                }
+            }
+        })
+    };
+    let (left_nodes, left_leaves) = (left.nodes.len(), left.leaves.len());
+    nodes.extend(shifted(left.nodes, 1, 0));
+    nodes.extend(shifted(right.nodes, 1 + left_nodes, left_leaves));
+    let mut leaves = left.leaves;
+    leaves.extend(right.leaves);
+    let mut boxes = left.boxes;
+    boxes.extend(right.boxes);
+    Subtree {
+        nodes,
+        leaves,
+        boxes,
+    }
+}
+
+/// Splits a cell of more than [`LEAF`] items: the widest side near the median, at a multiple
+/// of [`LEAF`] so that every leaf but the last is full. Returns the inner node (without its
+/// second child), where `items` (reordered) splits, and the two cells.
+fn split_cell(items: &mut [([f32; 3], u32)], cell: Cell) -> (Node, usize, (Cell, Cell)) {
+    let (low, high) = cell;
+    let axis = (0..3)
+        .max_by(|&a, &b| (high[a] - low[a]).total_cmp(&(high[b] - low[b])))
+        .unwrap_or(0);
+    let mid = (items.len().div_ceil(LEAF) / 2) * LEAF;
+    items.select_nth_unstable_by(mid, |x, y| x.0[axis].total_cmp(&y.0[axis]));
+    let split = items[mid].0[axis];
+    let (mut left_high, mut right_low) = (high, low);
+    left_high[axis] = split;
+    right_low[axis] = split;
+    let node = Node {
+        start: 0,
+        split,
+        axis: axis as u32,
+        second: 0,
+    };
+    (node, mid, ((low, left_high), (right_low, high)))
+}
+
 /// Builds the subtree of `items` (reordered in place) in `cell`, pushing its nodes depth
 /// first and its leaves in order: splits the cell's widest side near the median, at a
 /// multiple of [`LEAF`] so that every leaf but the last is full.
 fn build(
     items: &mut [([f32; 3], u32)],
-    cell: ([f32; 3], [f32; 3]),
+    cell: Cell,
     nodes: &mut Vec<Node>,
     leaves: &mut (&mut Vec<LeafBlock>, &mut Vec<LeafBox>),
 ) {
@@ -233,26 +322,12 @@ fn build(
         leaves.1.push(bounds);
         return;
     }
-    let (low, high) = cell;
-    let axis = (0..3)
-        .max_by(|&a, &b| (high[a] - low[a]).total_cmp(&(high[b] - low[b])))
-        .unwrap_or(0);
-    let mid = (items.len().div_ceil(LEAF) / 2) * LEAF;
-    items.select_nth_unstable_by(mid, |x, y| x.0[axis].total_cmp(&y.0[axis]));
-    let split = items[mid].0[axis];
-    nodes.push(Node {
-        start: 0,
-        split,
-        axis: axis as u32,
-        second: 0,
-    });
+    let (node, mid, (left_cell, right_cell)) = split_cell(items, cell);
+    nodes.push(node);
     let (left, right) = items.split_at_mut(mid);
-    let (mut left_high, mut right_low) = (high, low);
-    left_high[axis] = split;
-    right_low[axis] = split;
-    build(left, (low, left_high), nodes, leaves);
+    build(left, left_cell, nodes, leaves);
     nodes[here].second = nodes.len() as u32;
-    build(right, (right_low, high), nodes, leaves);
+    build(right, right_cell, nodes, leaves);
 }
 
 #[cfg(test)]
@@ -261,9 +336,45 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     #[test]
+    fn built_in_parallel_is_the_tree_built_in_one_go() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(8);
+        let points: Vec<[f32; 3]> = (0..20_000)
+            .map(|_| {
+                [
+                    rng.random::<f32>(),
+                    rng.random::<f32>(),
+                    rng.random::<f32>(),
+                ]
+            })
+            .collect();
+        let ids: Vec<u32> = (0..points.len() as u32).collect();
+        let tree = NearTree::new(&points, &ids);
+        let mut items: Vec<([f32; 3], u32)> = points.iter().copied().zip(ids).collect();
+        let (mut nodes, mut leaves, mut boxes) = (Vec::new(), Vec::new(), Vec::new());
+        let mut cell = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        for p in &points {
+            for a in 0..3 {
+                cell.0[a] = cell.0[a].min(p[a]);
+                cell.1[a] = cell.1[a].max(p[a]);
+            }
+        }
+        build(&mut items, cell, &mut nodes, &mut (&mut leaves, &mut boxes));
+        assert_eq!(tree.nodes.len(), nodes.len());
+        for (a, b) in tree.nodes.iter().zip(&nodes) {
+            assert_eq!(
+                (a.start, a.split, a.axis, a.second),
+                (b.start, b.split, b.axis, b.second)
+            );
+        }
+        for (a, b) in tree.leaves.iter().zip(&leaves) {
+            assert_eq!(a.id, b.id);
+        }
+    }
+
+    #[test]
     fn nearest_within_matches_brute_force() {
         let mut rng = rand::rngs::StdRng::seed_from_u64(3);
-        for n in [0usize, 1, 7, 9, 100, 2000] {
+        for n in [0usize, 1, 7, 9, 100, 2000, 9000] {
             let points: Vec<[f32; 3]> = (0..n)
                 .map(|_| {
                     [

@@ -50,17 +50,33 @@ impl Hypotheses {
             })
             .collect();
         let merge2 = merge * merge;
-        let mut entry = Vec::with_capacity(model.vertex_count() * 2);
-        let mut local = Vec::with_capacity(model.vertex_count() * 2);
-        for v in 0..model.vertex_count() {
-            let entries = model.blend_entries(v);
-            let first = entries.start;
-            for e in entries {
-                if e == first || (at[e] - at[first]).norm_squared() > merge2 {
-                    entry.push(e as u32);
-                    local.push(packed[e].at);
+        // Chosen vertex by vertex in runs of vertices side by side, then joined in order.
+        const RUN: usize = 1024;
+        let runs: Vec<(Vec<u32>, Vec<[f32; 3]>)> = (0..model.vertex_count().div_ceil(RUN))
+            .into_par_iter()
+            .map(|run| {
+                let vertices = run * RUN..((run + 1) * RUN).min(model.vertex_count());
+                let mut entry = Vec::with_capacity(2 * vertices.len());
+                let mut local = Vec::with_capacity(2 * vertices.len());
+                for v in vertices {
+                    let entries = model.blend_entries(v);
+                    let first = entries.start;
+                    for e in entries {
+                        if e == first || (at[e] - at[first]).norm_squared() > merge2 {
+                            entry.push(e as u32);
+                            local.push(packed[e].at);
+                        }
+                    }
                 }
-            }
+                (entry, local)
+            })
+            .collect();
+        let kept = runs.iter().map(|(e, _)| e.len()).sum();
+        let mut entry = Vec::with_capacity(kept);
+        let mut local = Vec::with_capacity(kept);
+        for (e, l) in runs {
+            entry.extend_from_slice(&e);
+            local.extend_from_slice(&l);
         }
         Self {
             packed,

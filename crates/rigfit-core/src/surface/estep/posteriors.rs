@@ -162,8 +162,8 @@ struct Likelihood {
 }
 
 /// Posteriors (eq. 8) summed per vertex over the points taking part, with each point's
-/// candidates from `cache`: each task adds its points into its own sums, and the tasks'
-/// sums are added at the end (as many as the pool splits the work into).
+/// candidates from `cache`: each task (one per thread) adds its points into its own sums,
+/// and the tasks' sums are added at the end.
 pub(super) fn posteriors(
     model: &PatchModel,
     mixture: &Mixture,
@@ -176,8 +176,12 @@ pub(super) fn posteriors(
     let slots = cache.slots;
     let ActiveRanks { stride, active } = cache.active_ranks(data.points.len());
     let empty = || VertexTargets::zeros(n_vertices);
-    (0..active.div_ceil(POSTERIOR_CHUNK))
+    let chunks = active.div_ceil(POSTERIOR_CHUNK);
+    // As many tasks as threads: each task's sums are a whole mesh's to zero and to add.
+    let per_task = chunks.div_ceil(rayon::current_num_threads()).max(1);
+    (0..chunks)
         .into_par_iter()
+        .with_min_len(per_task)
         .fold(empty, |mut sums, c| {
             // Per point: the best vertex of each patch found, and then its squared distance
             // to the deformed vertex and its likelihood.
