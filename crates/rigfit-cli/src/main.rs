@@ -7,12 +7,6 @@ use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
 use rigfit_cli::commands;
 
-/// mimalloc keeps the memory a solver frees for its next iteration; the system allocator hands
-/// large blocks back and faults them in again (a surface frame touched 16 MB of fresh pages:
-/// BENCHMARKS.md, issue 22, session 15).
-#[global_allocator]
-static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
-
 /// Fits skeletons and deformable surfaces to 3D data: strokes, point clouds, scans.
 #[derive(Debug, Parser)]
 #[command(name = "rigfit", version, about, long_about = None)]

@@ -4,10 +4,6 @@
 use criterion::{Criterion, black_box, criterion_group, criterion_main};
 use rigfit_core::{DofLayout, ForwardKinematics, Joint, Point3, Quat, Skeleton, Trs, Vector3};
 
-/// The benches measure with the command line's allocator (see rigfit-cli's `main.rs`).
-#[global_allocator]
-static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
-
 /// A 55-joint tree: a 5-joint spine, and 5 limbs of 10 joints hanging off it.
 fn rig55() -> Skeleton {
     let mut joints = vec![Joint::new("root", None, Trs::IDENTITY)];

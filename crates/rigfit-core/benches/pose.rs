@@ -15,10 +15,6 @@ use rigfit_formats::rig_file::{RigOptions, read_rig};
 use rigfit_testkit::pose_suites::strokes_of_size;
 use rigfit_testkit::targets::{FarPoseOptions, far_pose};
 
-/// The benches measure with the command line's allocator (see rigfit-cli's `main.rs`).
-#[global_allocator]
-static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
-
 /// A rig of the posing corpus with `joints` joints, or `None` (with a note) when the corpus
 /// is not on this machine.
 fn corpus_rig(file: &str, joints: usize) -> Option<Rig> {

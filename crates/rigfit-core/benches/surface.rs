@@ -11,10 +11,6 @@ use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker, e_step}
 use rigfit_testkit::surface_cases::warmed_torus_tracker;
 use rigfit_testkit::surface_corpus::{self, PartsOptions};
 
-/// The benches measure with the command line's allocator (see rigfit-cli's `main.rs`).
-#[global_allocator]
-static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
-
 fn surface(c: &mut Criterion) {
     let (reference, frames, tracker) = warmed_torus_tracker();
     let diagonal = reference.bounds().expect("bounds").diagonal();

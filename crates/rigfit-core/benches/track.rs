@@ -16,10 +16,6 @@ use rigfit_core::track::{TrackOptions, Tracker, initialise};
 use rigfit_core::{Point3, Quat, Vector3};
 use rigfit_testkit::track_cases::SequenceOptions;
 
-/// The benches measure with the command line's allocator (see rigfit-cli's `main.rs`).
-#[global_allocator]
-static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
-
 fn bench_suite(c: &mut Criterion, label: &str, name: &'static str, points: usize) {
     let options = SequenceOptions {
         points,
