@@ -75,19 +75,12 @@ impl NearTree {
         if items.is_empty() {
             return Self::default();
         }
-        let mut low = [f32::INFINITY; 3];
-        let mut high = [f32::NEG_INFINITY; 3];
-        for (p, _) in &items {
-            for a in 0..3 {
-                low[a] = low[a].min(p[a]);
-                high[a] = high[a].max(p[a]);
-            }
-        }
+        let cell = bounding_cell(points);
         let Subtree {
             nodes,
             leaves,
             boxes,
-        } = build_in_parallel(&mut items, (low, high));
+        } = build_in_parallel(&mut items, cell);
         Self {
             len: points.len(),
             leaves,
@@ -194,6 +187,18 @@ fn leaf_distances(leaf: &LeafBlock, q: [f32; 3], bound: f32, d2: &mut [f32; LEAF
 
 /// A cell of the tree: its low and high corners.
 type Cell = ([f32; 3], [f32; 3]);
+
+/// The smallest cell holding `points`.
+fn bounding_cell(points: &[[f32; 3]]) -> Cell {
+    let mut cell = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for p in points {
+        for a in 0..3 {
+            cell.0[a] = cell.0[a].min(p[a]);
+            cell.1[a] = cell.1[a].max(p[a]);
+        }
+    }
+    cell
+}
 
 /// Subtrees of at least this many points build their two halves on two threads.
 const PARALLEL_BUILD: usize = 4096;
@@ -351,13 +356,7 @@ mod tests {
         let tree = NearTree::new(&points, &ids);
         let mut items: Vec<([f32; 3], u32)> = points.iter().copied().zip(ids).collect();
         let (mut nodes, mut leaves, mut boxes) = (Vec::new(), Vec::new(), Vec::new());
-        let mut cell = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-        for p in &points {
-            for a in 0..3 {
-                cell.0[a] = cell.0[a].min(p[a]);
-                cell.1[a] = cell.1[a].max(p[a]);
-            }
-        }
+        let cell = bounding_cell(&points);
         build(&mut items, cell, &mut nodes, &mut (&mut leaves, &mut boxes));
         assert_eq!(tree.nodes.len(), nodes.len());
         for (a, b) in tree.nodes.iter().zip(&nodes) {
