@@ -6,10 +6,14 @@
 //! cargo run --release -p rigfit-testkit --example pose_corpus -- \
 //!     [--half tune|held-out|all] [--scenario NAME|all] [--cases N] [--case I] [--rig ID[,ID]]
 //!     [--method default|joint-model|global|greedy|paper] [--threads N] [--worst K] [--markdown]
+//!     [--offer nothing|truth|truth-root]
 //! ```
 //! Scenarios: every-chain, limbs-only, few-limbs, flattened, far. The corpus is
 //! `RIGFIT_CORPUS_MANIFEST` (default `data/corpus.json`) over the folder `RIGFIT_CORPUS`.
 //! A case of `--worst` reruns alone with the `--rig`, `--scenario` and `--case` it prints.
+//! `--offer` gives every solve one more start, the true pose or the start pose with the root
+//! placed as in the truth: a diagnostic (what remains failing, the score chose; what it
+//! fixes, the search missed).
 
 use std::process::ExitCode;
 
@@ -17,11 +21,12 @@ use rigfit_core::pose::PoseOptions;
 use rigfit_testkit::report::{
     check_held_out, markdown_table, per_half, per_rig, text_table, worst_cases, worst_table,
 };
+use rigfit_testkit::sweep::Offer;
 use rigfit_testkit::{Corpus, Half, Scenario, SweepOptions, sweep};
 
 const USAGE: &str = "usage: pose_corpus [--half tune|held-out|all] [--scenario NAME|all] \
 [--cases N] [--case I] [--rig ID[,ID...]] [--method default|joint-model|global|greedy|paper] [--threads N] [--worst K] \
-[--markdown]";
+[--markdown] [--offer nothing|truth|truth-root]";
 
 struct Args {
     sweep: SweepOptions,
@@ -66,6 +71,11 @@ fn parse_args() -> Result<Option<Args>, String> {
                             format!("--half: '{name}' is not tune, held-out or all")
                         })?),
                     }
+            }
+            "--offer" => {
+                args.sweep.offer = Offer::from_name(&value).ok_or_else(|| {
+                    format!("--offer: '{value}' is not nothing, truth or truth-root")
+                })?
             }
             "--scenario" => {
                 args.sweep.scenarios = match value.as_str() {

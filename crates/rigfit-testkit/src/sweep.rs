@@ -37,6 +37,46 @@ pub struct SweepOptions {
     /// Give the solver the rig's joint model (hinges and limits from its joints file or
     /// clips), as `rigfit pose --joints` does; cases are drawn with it either way.
     pub joint_model: bool,
+    /// What each solve is offered as an extra start ([`PoseOptions::extra_starts`]).
+    pub offer: Offer,
+}
+
+/// An extra start offered to each solve of a sweep: a diagnostic that splits the failures
+/// into those the search missed (the truth, offered, wins) and those the score chose wrong.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Offer {
+    /// Nothing: the solver as a user runs it.
+    #[default]
+    Nothing,
+    /// The true pose.
+    Truth,
+    /// The start pose with the character's root placed as in the truth.
+    TruthRoot,
+}
+
+impl Offer {
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "nothing" => Some(Self::Nothing),
+            "truth" => Some(Self::Truth),
+            "truth-root" => Some(Self::TruthRoot),
+            _ => None,
+        }
+    }
+
+    /// The pose offered for `generated` on `rig`, if any.
+    fn start(self, rig: &CorpusRig, generated: &GeneratedCase) -> Option<Pose> {
+        match self {
+            Self::Nothing => None,
+            Self::Truth => Some(generated.truth.clone()),
+            Self::TruthRoot => {
+                let root = rig.solver_skeleton().skin_root()?;
+                let mut start = rig.start.clone();
+                start.local[root] = generated.truth.local[root];
+                Some(start)
+            }
+        }
+    }
 }
 
 impl Default for SweepOptions {
@@ -50,6 +90,7 @@ impl Default for SweepOptions {
             pose: PoseOptions::default(),
             threads: None,
             joint_model: false,
+            offer: Offer::Nothing,
         }
     }
 }
@@ -229,15 +270,28 @@ pub fn solve_generated(
     }
 }
 
-/// Generates case `index` of `scenario` on `rig` and solves it with `options`.
+/// Generates case `index` of `scenario` on `rig` and solves it with `options`, offered
+/// `offer` as an extra start.
 pub fn solve_case(
     rig: &CorpusRig,
     scenario: Scenario,
     index: usize,
     options: &PoseOptions,
+    offer: Offer,
 ) -> Outcome {
     let generated = generate_case(rig, scenario, index);
     let skeleton = &rig.rig.skeleton;
+    let offered;
+    let options = match offer.start(rig, &generated) {
+        Some(start) => {
+            offered = PoseOptions {
+                extra_starts: vec![start],
+                ..options.clone()
+            };
+            &offered
+        }
+        None => options,
+    };
     let Solved {
         result, seconds, ..
     } = solve_generated(rig, &generated, options);
@@ -330,7 +384,9 @@ pub fn sweep(
             .collect();
         let rig_outcomes: Vec<Outcome> = pool.install(|| {
             jobs.par_iter()
-                .map(|&(scenario, index)| solve_case(&rig, scenario, index, &options.pose))
+                .map(|&(scenario, index)| {
+                    solve_case(&rig, scenario, index, &options.pose, options.offer)
+                })
                 .collect()
         });
         progress(&rig, &rig_outcomes);

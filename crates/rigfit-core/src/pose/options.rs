@@ -1,6 +1,8 @@
 //! How a solve runs ([`PoseOptions`]), the bounds on what it takes, and why it may refuse
 //! ([`PoseError`]).
 
+use crate::skeleton::Pose;
+
 /// Stroke points further than this many character heights from the rig are rejected.
 pub const MAX_STROKE_DISTANCE: f64 = 100.0;
 
@@ -58,6 +60,10 @@ pub struct PoseOptions {
     pub max_final_iterations: usize,
     /// A stroke whose RMS distance to its fitted chain exceeds this is a stray.
     pub stray_distance: f64,
+    /// Poses tried as starts beside the rigid placements and the start pose (a neighbouring
+    /// keyframe; the corpus offers the truth, to tell a search that missed from a score
+    /// that chose wrong). Poses whose joint count is not the skeleton's are ignored.
+    pub extra_starts: Vec<Pose>,
 }
 
 impl Default for PoseOptions {
@@ -80,6 +86,7 @@ impl Default for PoseOptions {
             gauss_newton_steps: 1,
             max_final_iterations: 12,
             stray_distance: 0.06,
+            extra_starts: Vec::new(),
         }
     }
 }

@@ -9,7 +9,7 @@ use super::chains::{Assignment, stroke_length, stroke_residuals};
 use super::fitting::{FULL_FIT_STEPS, Fitter};
 use super::local_moves::improve;
 use super::mirror_image::bone_mirrors;
-use super::multi_start::rigid_placements;
+use super::multi_start::{rigid_placements, turned_starts};
 use super::setup::Setup;
 use super::{PoseError, PoseResult};
 use crate::joint_model::limit_excess;
@@ -113,7 +113,7 @@ impl<'a> Solver<'a> {
     pub fn run(mut self) -> Result<PoseResult, PoseError> {
         let setup = &self.setup;
         let opts = setup.options;
-        let starts = match (opts.rigid_init, setup.root) {
+        let (mut starts, turned) = match (opts.rigid_init, setup.root) {
             // Markers are placed by their strokes alone.
             // Strokes covering little of the body (a hand's fingers) say nothing of where the
             // whole body is: it stays where it stands.
@@ -124,10 +124,17 @@ impl<'a> Solver<'a> {
                 // character already in place say little about where the whole body is.
                 let mut placements = rigid_placements(setup, root);
                 placements.push(setup.start.clone());
-                placements
+                (placements, turned_starts(setup, root))
             }
-            _ => vec![setup.start.clone()],
+            _ => (vec![setup.start.clone()], Vec::new()),
         };
+        let joints = setup.skeleton.len();
+        starts.extend(
+            opts.extra_starts
+                .iter()
+                .filter(|p| p.local.len() == joints)
+                .cloned(),
+        );
         let all = setup.layout(&setup.movable);
         let sigmas = schedule(
             setup.height,
@@ -154,18 +161,22 @@ impl<'a> Solver<'a> {
             &[false]
         };
         let mut fits: Vec<ChainFit> = Vec::new();
-        for start in &starts {
-            for &by_shape in modes {
-                if self.setup.interrupt.is_set() {
-                    break;
-                }
-                self.fitter.pose = start.clone();
-                self.by_shape = by_shape;
-                if opts.anneal_before_chains {
-                    anneal(&self.setup, &mut self.fitter, &all, &sigmas, None);
-                }
-                fits.push(self.chain_step(None));
+        // The character turned where it stands has its limbs far from their strokes: its
+        // strokes are matched by shape alone.
+        let hypotheses = starts
+            .iter()
+            .flat_map(|start| modes.iter().map(move |&by_shape| (start, by_shape)))
+            .chain(turned.iter().map(|start| (start, opts.shape_matching)));
+        for (start, by_shape) in hypotheses {
+            if self.setup.interrupt.is_set() {
+                break;
             }
+            self.fitter.pose = start.clone();
+            self.by_shape = by_shape;
+            if opts.anneal_before_chains {
+                anneal(&self.setup, &mut self.fitter, &all, &sigmas, None);
+            }
+            fits.push(self.chain_step(None));
         }
         fits.sort_by(|a, b| a.score.total_cmp(&b.score));
         // Hypotheses that converged to the same assignment are one.
