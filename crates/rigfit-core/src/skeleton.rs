@@ -396,6 +396,27 @@ impl Skeleton {
         out
     }
 
+    /// The world rotation of every joint for `pose`: the products of the local rotations
+    /// from the root (scales left out).
+    pub fn world_rotations(&self, pose: &Pose) -> Vec<Quat> {
+        let mut world: Vec<Quat> = Vec::with_capacity(self.len());
+        for (j, joint) in self.joints.iter().enumerate() {
+            let parent = joint.parent.map_or_else(Quat::identity, |p| world[p]);
+            world.push(parent * pose.local[j].rotation);
+        }
+        world
+    }
+
+    /// The local rotation of `joint` in `pose` turned by `turn` about world axes through the
+    /// joint (its subtree turns with it); `world` is the pose's
+    /// [`Skeleton::world_rotations`].
+    pub fn turned_in_world(&self, pose: &Pose, world: &[Quat], joint: usize, turn: &Quat) -> Quat {
+        let parent = self.joints[joint]
+            .parent
+            .map_or_else(Quat::identity, |p| world[p]);
+        parent.inverse() * turn * parent * pose.local[joint].rotation
+    }
+
     /// The world position of every joint for `pose`.
     pub fn joint_positions(&self, pose: &Pose) -> Vec<crate::math::Point3> {
         self.world_matrices(pose)

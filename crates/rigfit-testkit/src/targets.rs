@@ -125,8 +125,8 @@ pub fn mirror_pose(
         .sum();
     let normal = across.try_normalize(1e-12 * height.max(1e-300))?;
     let base = random_bends(skeleton, start, animations, height, options, rng);
-    let start_world = world_rotations(skeleton, start);
-    let base_world = world_rotations(skeleton, &base);
+    let start_world = skeleton.world_rotations(start);
+    let base_world = skeleton.world_rotations(&base);
     let mut left_of = vec![None; skeleton.len()];
     let mut is_left = vec![false; skeleton.len()];
     for &(left, right) in &pairs {
@@ -153,16 +153,6 @@ pub fn mirror_pose(
     skeleton.apply_ties(&mut pose);
     turn_heading(skeleton, &mut pose, options, rng);
     Some(pose)
-}
-
-/// The world rotation of every joint (products of local rotations; scale ignored).
-fn world_rotations(skeleton: &Skeleton, pose: &Pose) -> Vec<Quat> {
-    let mut world: Vec<Quat> = Vec::with_capacity(skeleton.len());
-    for (j, joint) in skeleton.joints().iter().enumerate() {
-        let parent = joint.parent.map_or_else(Quat::identity, |p| world[p]);
-        world.push(parent * pose.local[j].rotation);
-    }
-    world
 }
 
 /// The mirror image of a rotation through the plane with unit normal `normal`.
@@ -351,11 +341,7 @@ fn turn_heading(
         0.0
     };
     let up = options.up.try_normalize(1e-12).unwrap_or_else(Vector3::y);
-    let world = world_rotations(skeleton, pose);
-    let parent = skeleton
-        .joint(root)
-        .parent
-        .map_or_else(Quat::identity, |p| world[p]);
+    let world = skeleton.world_rotations(pose);
     let turn = Quat::from_scaled_axis(up * angle);
-    pose.local[root].rotation = parent.inverse() * turn * parent * pose.local[root].rotation;
+    pose.local[root].rotation = skeleton.turned_in_world(pose, &world, root, &turn);
 }

@@ -8,7 +8,7 @@ use super::fitting::Fitter;
 use super::setup::Setup;
 use crate::geometry::centroid;
 use crate::kinematics::{DofLayout, ForwardKinematics};
-use crate::math::{Matrix4, Quat, Trs, Vector3, rotation_quat};
+use crate::math::{Matrix4, Quat, Trs, Vector3};
 use crate::skeleton::Pose;
 
 /// Headings tried about each candidate vertical axis.
@@ -17,19 +17,28 @@ const HEADINGS: usize = 4;
 /// Placements kept as hypotheses (the best explained).
 const KEPT_PLACEMENTS: usize = 4;
 
+/// The starts of the chain step when the whole character may move: the rigid placements
+/// and the character where it stands, then its turns ([`turned_starts`]). Both are judged
+/// on a thinned setup: every third stroke sample, every other model point (a rigid fit
+/// needs few points).
+pub(super) fn placements_and_turns(setup: &Setup, root: usize) -> (Vec<Pose>, Vec<Pose>) {
+    let thin = setup.thinned(3, 2);
+    let mut placements = rigid_placements(&thin, root);
+    placements.push(setup.start.clone());
+    (placements, turned_starts(&thin, root))
+}
+
 /// Rigid alignments of the whole character from [`HEADINGS`] headings about y and about z
 /// (files are y-up or z-up, and strokes do not say which), the [`KEPT_PLACEMENTS`] best
-/// explained first.
-pub(super) fn rigid_placements(setup: &Setup, root: usize) -> Vec<Pose> {
-    let skeleton = setup.skeleton;
+/// explained first; `thin` is the solve's thinned setup.
+fn rigid_placements(thin: &Setup, root: usize) -> Vec<Pose> {
+    let skeleton = thin.skeleton;
     let mut only_root = vec![false; skeleton.len()];
     only_root[root] = true;
     let layout = DofLayout::with_active(skeleton, &only_root);
-    // A rigid fit needs few points: every third stroke sample, every other model point.
-    let thin = setup.thinned(3, 2);
     let data_centre = centroid(&thin.strokes.points).coords;
-    let sigmas = schedule(setup.height, 0.3, 0.05, 6, false);
-    let start_fk = ForwardKinematics::new(skeleton, setup.start);
+    let sigmas = schedule(thin.height, 0.3, 0.05, 6, false);
+    let start_fk = ForwardKinematics::new(skeleton, thin.start);
     let model_centre = centroid(&thin.model.world_points(&start_fk)).coords;
     let parent = skeleton
         .joint(root)
@@ -54,12 +63,12 @@ pub(super) fn rigid_placements(setup: &Setup, root: usize) -> Vec<Pose> {
                 * Matrix4::new_translation(&-model_centre)
                 * start_fk.world(root);
             let trs = Trs::from_matrix(&(parent_inverse * world_root));
-            let mut pose = setup.start.clone();
+            let mut pose = thin.start.clone();
             pose.local[root].translation = trs.translation;
             pose.local[root].rotation = trs.rotation;
-            let mut fitter = Fitter::new(pose, setup.options.prior_weight);
-            anneal(&thin, &mut fitter, &layout, &sigmas, None);
-            (truncated_chamfer(&thin, &fitter.pose), fitter.pose)
+            let mut fitter = Fitter::new(pose, thin.options.prior_weight);
+            anneal(thin, &mut fitter, &layout, &sigmas, None);
+            (truncated_chamfer(thin, &fitter.pose), fitter.pose)
         })
         .collect();
     found.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -100,33 +109,19 @@ const TURNED_STARTS: usize = 6;
 /// about y and about z (the start itself left out), the [`TURNED_STARTS`] that explain the
 /// strokes best, unfitted. A body turned far (facing away) with its limbs far from their
 /// strokes is reached from these when the rigid placements, pulled by the limbs, settle at
-/// another heading.
-pub(super) fn turned_starts(setup: &Setup, root: usize) -> Vec<Pose> {
-    let skeleton = setup.skeleton;
-    let thin = setup.thinned(3, 2);
-    let fk = ForwardKinematics::new(skeleton, setup.start);
-    // The root's parent's rotation, its scale taken out.
-    let parent = skeleton
-        .joint(root)
-        .parent
-        .map_or_else(Quat::identity, |p| {
-            let mut frame = fk.world(p).fixed_view::<3, 3>(0, 0).into_owned();
-            for mut axis in frame.column_iter_mut() {
-                axis.normalize_mut();
-            }
-            rotation_quat(&frame)
-        });
+/// another heading. `thin` is the solve's thinned setup.
+fn turned_starts(thin: &Setup, root: usize) -> Vec<Pose> {
+    let skeleton = thin.skeleton;
+    let world = skeleton.world_rotations(thin.start);
     let mut found: Vec<(f64, Pose)> = (1..TURNED_HEADINGS)
         .flat_map(|heading| {
             let angle = heading as f64 * std::f64::consts::TAU / TURNED_HEADINGS as f64;
             [Vector3::y_axis(), Vector3::z_axis()].map(|axis| Quat::from_axis_angle(&axis, angle))
         })
         .map(|turn| {
-            // The turn is about world axes through the root: seen from its parent's frame.
-            let mut pose = setup.start.clone();
-            pose.local[root].rotation =
-                parent.inverse() * turn * parent * pose.local[root].rotation;
-            (truncated_chamfer(&thin, &pose), pose)
+            let mut pose = thin.start.clone();
+            pose.local[root].rotation = skeleton.turned_in_world(&pose, &world, root, &turn);
+            (truncated_chamfer(thin, &pose), pose)
         })
         .collect();
     found.sort_by(|a, b| a.0.total_cmp(&b.0));

@@ -9,7 +9,7 @@ use super::chains::{Assignment, stroke_length, stroke_residuals};
 use super::fitting::{FULL_FIT_STEPS, Fitter};
 use super::local_moves::improve;
 use super::mirror_image::bone_mirrors;
-use super::multi_start::{rigid_placements, turned_starts};
+use super::multi_start::placements_and_turns;
 use super::setup::Setup;
 use super::{PoseError, PoseResult};
 use crate::joint_model::limit_excess;
@@ -122,9 +122,7 @@ impl<'a> Solver<'a> {
             {
                 // The character where it stands is a hypothesis too: a few strokes drawn on a
                 // character already in place say little about where the whole body is.
-                let mut placements = rigid_placements(setup, root);
-                placements.push(setup.start.clone());
-                (placements, turned_starts(setup, root))
+                placements_and_turns(setup, root)
             }
             _ => (vec![setup.start.clone()], Vec::new()),
         };

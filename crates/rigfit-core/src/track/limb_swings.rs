@@ -105,19 +105,6 @@ fn limbs(skeleton: &Skeleton, pose: &Pose, height: f64, options: &LimbSwingOptio
         .collect()
 }
 
-/// Each joint's world rotation in `pose` (products of local rotations).
-fn world_rotations(skeleton: &Skeleton, pose: &Pose) -> Vec<Quat> {
-    let mut world: Vec<Quat> = Vec::with_capacity(skeleton.len());
-    for j in 0..skeleton.len() {
-        let local = pose.local[j].rotation;
-        world.push(match skeleton.joint(j).parent {
-            Some(p) => world[p] * local,
-            None => local,
-        });
-    }
-    world
-}
-
 /// `pose` with each limb swung where the data are explained best; the tracker's pose is
 /// left at the result. Returns the pose and how many limbs moved.
 pub(super) fn swing_limbs(
@@ -148,19 +135,14 @@ pub(super) fn swing_limbs(
         if direction.norm() < 1e-9 * h {
             continue;
         }
-        let world = world_rotations(&skeleton, &best);
-        let parent_world = skeleton
-            .joint(j)
-            .parent
-            .map_or(Quat::identity(), |p| world[p]);
+        let world = skeleton.world_rotations(&best);
         let joint = skeleton.joint(j);
         let mut chosen: Option<(Pose, f64)> = None;
         for target in directions(options.diagonals) {
             let Some(swing) = Quat::rotation_between(&direction, &target) else {
                 continue;
             };
-            // World swing R: local' = parent_world^-1 * R * parent_world * local.
-            let local = parent_world.inverse() * swing * parent_world * best.local[j].rotation;
+            let local = skeleton.turned_in_world(&best, &world, j, &swing);
             let local = match joint.dof {
                 // A hinge keeps only the swing's turn about its axis.
                 JointDof::Hinge { axis } => {
