@@ -44,14 +44,24 @@ pub(super) struct Fitter {
     arclength: Option<(Vec<Assignment>, Targets)>,
 }
 
+/// The damping of the first Levenberg-Marquardt step of a fit from a new start.
+const INITIAL_DAMPING: f64 = 1e-3;
+
 impl Fitter {
+    /// Starts fitting a new hypothesis from `pose`, with the first step's damping (so
+    /// that a hypothesis is fitted alike whichever was fitted before it).
+    pub fn restart_from(&mut self, pose: Pose) {
+        self.pose = pose;
+        self.lambda = INITIAL_DAMPING;
+    }
+
     pub fn new(pose: Pose, prior_weight: f64) -> Self {
         Self {
             pose,
             iterations: 0,
             prior_weight,
             limit_weight: 0.0,
-            lambda: 1e-3,
+            lambda: INITIAL_DAMPING,
             moments: SubtreeMoments::new(),
             normal: None,
             fk: None,

@@ -1,12 +1,14 @@
 //! Local moves on a fitted hypothesis: swap the chains of mirror-image limbs, trade a stray
 //! for an assigned stroke, give a stroke another close chain (the strokes that lose bones
-//! pick again), and move a stroke to a free chain of about its length. Every move is judged
+//! pick again), move a stroke to a free chain of about its length, and shift a run of strokes
+//! along a row of alike limbs ([`shift_along_rows`]). Every move is judged
 //! by one accept step ([`Solver::accept`]): a quick fit, then a full one when it explains
 //! the strokes better.
 
 use super::assignment::{Candidates, STRAY_COST, candidates, complete_greedily};
 use super::chains::{Assignment, better_direction, stroke_length};
 use super::fitting::FULL_FIT_STEPS;
+use super::row_shift::shift_along_rows;
 use super::solver::{ChainFit, Solver};
 
 /// Levenberg-Marquardt steps used to judge a trial assignment.
@@ -39,6 +41,7 @@ pub(super) fn improve(solver: &mut Solver, mut fit: ChainFit) -> ChainFit {
         improved |= give_strays_free_chains(solver, &mut fit);
         improved |= take_close_chains(solver, &mut fit);
         improved |= move_to_free_chains(solver, &mut fit);
+        improved |= shift_along_rows(solver, &mut fit);
         if !improved {
             break;
         }
@@ -57,7 +60,7 @@ impl Solver<'_> {
 
     /// [`Solver::accept`] judging `trial` after `judge_steps` fitting steps (a limb that
     /// must swing far to reach its stroke needs more than the quick fit).
-    fn accept_judged_after(
+    pub(super) fn accept_judged_after(
         &mut self,
         trial: Vec<Assignment>,
         fit: &mut ChainFit,
@@ -119,7 +122,11 @@ impl Solver<'_> {
     }
 
     /// Which bones the strokes of `assignment` cover, stroke `except` left out.
-    fn bones_taken(&self, assignment: &[Assignment], except: Option<usize>) -> Vec<bool> {
+    pub(super) fn bones_taken(
+        &self,
+        assignment: &[Assignment],
+        except: Option<usize>,
+    ) -> Vec<bool> {
         let mut taken = vec![false; self.setup.model.bones.len()];
         for (t, a) in assignment.iter().enumerate() {
             if Some(t) != except {

@@ -21,6 +21,7 @@ mod local_moves;
 mod mirror_image;
 mod multi_start;
 mod options;
+mod row_shift;
 mod setup;
 pub mod sketch;
 mod solver;

@@ -17,15 +17,13 @@ const HEADINGS: usize = 4;
 /// Placements kept as hypotheses (the best explained).
 const KEPT_PLACEMENTS: usize = 4;
 
-/// The starts of the chain step when the whole character may move: the rigid placements
-/// and the character where it stands, then its turns ([`turned_starts`]). Both are judged
-/// on a thinned setup: every third stroke sample, every other model point (a rigid fit
-/// needs few points).
+/// The starts of the chain step, besides the character where it stands, when the whole
+/// character may move: the rigid placements, then the character turned where it stands
+/// ([`turned_starts`]). Both are judged on a thinned setup: every third stroke sample, every
+/// other model point (a rigid fit needs few points).
 pub(super) fn placements_and_turns(setup: &Setup, root: usize) -> (Vec<Pose>, Vec<Pose>) {
     let thin = setup.thinned(3, 2);
-    let mut placements = rigid_placements(&thin, root);
-    placements.push(setup.start.clone());
-    (placements, turned_starts(&thin, root))
+    (rigid_placements(&thin, root), turned_starts(&thin, root))
 }
 
 /// Rigid alignments of the whole character from [`HEADINGS`] headings about y and about z
