@@ -19,8 +19,9 @@ use crate::skeleton::Pose;
 /// Weight of the mean joint rotation (radians) against the mean squared stroke residual
 /// (heights) when choosing among hypotheses (measured on the tuning half: 5e-4 against 2e-3
 /// and 1e-4 when the rotations were squared, and against 2.5e-4 and 1e-3 unsquared; at 2e-3
-/// bending a small rig's limbs far cost more than setting their strokes aside).
-const HYPOTHESIS_BEND_WEIGHT: f64 = 5e-4;
+/// bending a small rig's limbs far cost more than setting their strokes aside; since
+/// session 17's search, 7e-4 against 3.5e-4, 5e-4 and 1e-3).
+const HYPOTHESIS_BEND_WEIGHT: f64 = 7e-4;
 
 /// Weight of the mean squared excess of the joints over their limits (radians) when
 /// choosing among hypotheses (measured on the tuning half: 1e-3 against 3e-4, 3e-3, 1e-2).
@@ -71,8 +72,8 @@ const CONVINCING_RESIDUAL: f64 = 0.02;
 const CONVINCING_SET_ASIDE: usize = 1;
 /// ... and its preference costs at most that of this mean bend of the joints that move
 /// (radians). Measured on the tuning half: 0.25 lost no case against searching every start,
-/// 0.4 lost two, and without a bound limbs-only lost 28 of 432 (bodies turned about with
-/// their limbs traded).
+/// 0.4 lost two every-chain cases, and without a bound limbs-only lost 28 of 432 (bodies
+/// turned about with their limbs traded).
 const CONVINCING_MEAN_BEND: f64 = 0.25;
 
 /// Rounds of the chain step (re-assignments and strays set aside).
