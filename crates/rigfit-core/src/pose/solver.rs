@@ -71,9 +71,9 @@ const CONVINCING_RESIDUAL: f64 = 0.02;
 /// ... at most this many strokes are set aside, ...
 const CONVINCING_SET_ASIDE: usize = 1;
 /// ... and its preference costs at most that of this mean bend of the joints that move
-/// (radians). Measured on the tuning half: 0.25 lost no case against searching every start,
-/// 0.4 lost two every-chain cases, and without a bound limbs-only lost 28 of 432 (bodies
-/// turned about with their limbs traded).
+/// (radians). Measured on the tuning half with the bend weight at 5e-4: 0.25 lost no case
+/// against searching every start, 0.4 lost two every-chain cases, and without a bound
+/// limbs-only lost 28 of 432 (bodies turned about with their limbs traded).
 const CONVINCING_MEAN_BEND: f64 = 0.25;
 
 /// Rounds of the chain step (re-assignments and strays set aside).
