@@ -11,14 +11,18 @@
 //! - [`linear_algebra`]: the normal equations behind [`NormalSink`], dense and block-sparse
 //!   (with the sparse Cholesky factorisation);
 //! - [`skeleton`]: the skeleton-only sums and storages (subtree moments, the articulated-body
-//!   recursion, the tree solver).
+//!   recursion, the tree solver);
+//! - [`awake_pool`]: a frame's many short parallel loops run with the pool's workers kept
+//!   awake between them.
 
+pub mod awake_pool;
 pub mod correspondence;
 pub mod fitting_loop;
 pub mod linear_algebra;
 pub mod skeleton;
 pub mod spatial;
 
+pub use awake_pool::run_with_workers_awake;
 pub use correspondence::{
     Candidates, DEWAELE_OUTLIER_CONSTANT, EmStep, Evidence, GaussianKernel, MatchMatrix,
     SoftassignParams, WeightedPoints, candidate_radius, em_step, em_step_with, exp_negative,

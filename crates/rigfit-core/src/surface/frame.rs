@@ -85,11 +85,20 @@ impl SurfaceTracker {
             // The move measured is the Gauss-Newton step's, before relaxation.
             tolerance: Some(self.options.tolerance * diagonal),
         };
-        let predictions = self.model.predictions(&self.pose);
+        let FrameScratch {
+            mut predictions,
+            mut normals,
+            mut spare_positions,
+        } = std::mem::take(&mut self.scratch);
+        self.model.predictions_into(&self.pose, &mut predictions);
+        self.model.blended_normals_into(&predictions, &mut normals);
+        self.model
+            .blended_positions_into(&predictions, &mut spare_positions);
         let mut frame = FrameEm {
-            positions: self.model.blended_positions(&predictions),
-            normals: self.model.blended_normals(&predictions),
+            positions: spare_positions,
+            normals,
             predictions,
+            spare_positions: Vec::new(),
             targets: VertexTargets::default(),
             total: 0.0,
             anchor: (self.options.anchor > 0.0).then_some(&last),
@@ -100,8 +109,16 @@ impl SurfaceTracker {
         let FrameEm {
             mut positions,
             targets,
+            predictions,
+            normals,
+            spare_positions,
             ..
         } = frame;
+        self.scratch = FrameScratch {
+            predictions,
+            normals,
+            spare_positions,
+        };
         let support = patch_support(&self.model, &targets);
         if self.options.carry_unseen && support.iter().any(|&s| s < 1.0) {
             carry_unseen(&self.model, &last, &mut self.pose, &support);
@@ -130,6 +147,14 @@ impl SurfaceTracker {
     }
 }
 
+/// Buffers a frame writes over and hands to the next ([`SurfaceTracker`] keeps them).
+#[derive(Clone, Debug, Default)]
+pub(super) struct FrameScratch {
+    predictions: Predictions,
+    normals: Vec<Vector3>,
+    spare_positions: Vec<Point3>,
+}
+
 /// One frame's EM as a model of the engine's fitting loop.
 struct FrameEm<'t, 'd> {
     tracker: &'t mut SurfaceTracker,
@@ -139,6 +164,8 @@ struct FrameEm<'t, 'd> {
     predictions: Predictions,
     positions: Vec<Point3>,
     normals: Vec<Vector3>,
+    /// The positions before the last M-step: a buffer the next one writes over.
+    spare_positions: Vec<Point3>,
     /// The last E-step's per-vertex targets and their total weight.
     targets: VertexTargets,
     total: f64,
@@ -158,6 +185,8 @@ impl EmModel for FrameEm<'_, '_> {
         } else {
             1
         });
+        let spent = std::mem::take(&mut self.targets);
+        tracker.cache.recycle(spent);
         self.targets = e_step_predicted(
             &tracker.model,
             &self.predictions,
@@ -207,8 +236,13 @@ impl EmModel for FrameEm<'_, '_> {
             &weights,
             self.anchor,
         )?;
-        self.predictions = tracker.model.predictions(&tracker.pose);
-        let moved_to = tracker.model.blended_positions(&self.predictions);
+        tracker
+            .model
+            .predictions_into(&tracker.pose, &mut self.predictions);
+        let mut moved_to = std::mem::take(&mut self.spare_positions);
+        tracker
+            .model
+            .blended_positions_into(&self.predictions, &mut moved_to);
         // Eq. 15's M-step for sigma: the weighted mean squared residual per coordinate.
         let sigma_em = (self.targets.residual(&moved_to) / (3.0 * self.total)).sqrt();
         // Root mean square displacement of the vertices in this iteration.
@@ -219,8 +253,10 @@ impl EmModel for FrameEm<'_, '_> {
             .sum::<f64>()
             / self.positions.len().max(1) as f64)
             .sqrt();
-        self.positions = moved_to;
-        self.normals = tracker.model.blended_normals(&self.predictions);
+        self.spare_positions = std::mem::replace(&mut self.positions, moved_to);
+        tracker
+            .model
+            .blended_normals_into(&self.predictions, &mut self.normals);
         Ok(Maximisation {
             moved: moved / weights.relaxation,
             sigma_estimate: Some(sigma_em),

@@ -332,6 +332,9 @@ pub struct SurfaceTracker {
     support: Vec<f64>,
     /// Candidate hypotheses kept between the E-steps of a frame.
     cache: EStepCache,
+    /// The last frame's buffers of predictions, normals and positions, which the next
+    /// writes over (fresh buffers of this size cost page faults).
+    scratch: frame::FrameScratch,
 }
 
 impl SurfaceTracker {
@@ -347,6 +350,7 @@ impl SurfaceTracker {
             previous: None,
             support: Vec::new(),
             cache: EStepCache::default(),
+            scratch: frame::FrameScratch::default(),
         })
     }
 
@@ -357,10 +361,11 @@ impl SurfaceTracker {
 
     /// Fits the next frame, starting from the current parameters (the previous frame's).
     pub fn track(&mut self, data: &Observations) -> Result<FrameFit, SurfaceError> {
-        // The whole frame runs on the thread pool: its many short parallel loops then start
-        // from a worker, instead of each waking the pool from outside (a wake-up costs tens
-        // of microseconds on a virtual machine, and a frame has about a hundred loops).
-        rayon::scope(|_| self.track_in_pool(data))
+        // The whole frame runs on the thread pool, with the other workers kept awake: its
+        // many short parallel loops then start from a worker, and no worker sleeps between
+        // them (a wake-up costs tens of microseconds on a virtual machine, and a frame has
+        // about a hundred loops).
+        crate::engine::run_with_workers_awake(|| self.track_in_pool(data))
     }
 }
 

@@ -346,46 +346,70 @@ impl PatchModel {
     /// Every blend entry's prediction and turned normal for `pose` (computed once per
     /// iteration: the E-step's hypotheses, the blended positions and normals all use them).
     pub fn predictions(&self, pose: &PatchPose) -> Predictions {
-        let (at, normal) = (0..self.blend_patch.len())
-            .into_par_iter()
-            .map(|e| {
-                let (l, v) = (self.blend_patch[e] as usize, self.blend_vertex[e] as usize);
-                (
-                    self.prediction(pose, l, v),
-                    pose.rotation[l] * self.rest_normals[v],
-                )
-            })
-            .unzip();
-        Predictions { at, normal }
+        let mut predictions = Predictions::default();
+        self.predictions_into(pose, &mut predictions);
+        predictions
+    }
+
+    /// [`PatchModel::predictions`] written over `out`, whose buffers are reused (a frame
+    /// computes them every iteration: fresh buffers of this size cost page faults).
+    pub fn predictions_into(&self, pose: &PatchPose, out: &mut Predictions) {
+        let n = self.blend_patch.len();
+        out.at.resize(n, Point3::origin());
+        out.normal.resize(n, Vector3::zeros());
+        const CHUNK: usize = 2048;
+        out.at
+            .par_chunks_mut(CHUNK)
+            .zip(out.normal.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(chunk, (at, normal))| {
+                let first = chunk * CHUNK;
+                for (i, (x, m)) in at.iter_mut().zip(normal.iter_mut()).enumerate() {
+                    let e = first + i;
+                    let (l, v) = (self.blend_patch[e] as usize, self.blend_vertex[e] as usize);
+                    *x = self.prediction(pose, l, v);
+                    *m = pose.rotation[l] * self.rest_normals[v];
+                }
+            });
     }
 
     /// The deformed mesh from its predictions: `x(v) = sum_k alpha_k(v) x_k(v)` (eq. 2).
     pub fn blended_positions(&self, predictions: &Predictions) -> Vec<Point3> {
-        (0..self.vertex_count())
-            .into_par_iter()
-            .map(|v| {
-                Point3::from(
-                    self.blend_entries(v)
-                        .map(|e| predictions.at[e].coords * self.blend_weight[e])
-                        .sum::<Vector3>(),
-                )
-            })
-            .collect()
+        let mut positions = Vec::new();
+        self.blended_positions_into(predictions, &mut positions);
+        positions
+    }
+
+    /// [`PatchModel::blended_positions`] written over `out` (its buffer reused).
+    pub fn blended_positions_into(&self, predictions: &Predictions, out: &mut Vec<Point3>) {
+        out.resize(self.vertex_count(), Point3::origin());
+        out.par_iter_mut().enumerate().for_each(|(v, x)| {
+            *x = Point3::from(
+                self.blend_entries(v)
+                    .map(|e| predictions.at[e].coords * self.blend_weight[e])
+                    .sum::<Vector3>(),
+            );
+        });
     }
 
     /// The deformed mesh's normals from its predictions: the reference normals turned by the
     /// blended rotations.
     pub fn blended_normals(&self, predictions: &Predictions) -> Vec<Vector3> {
-        (0..self.vertex_count())
-            .into_par_iter()
-            .map(|v| {
-                let n = self
-                    .blend_entries(v)
-                    .map(|e| predictions.normal[e] * self.blend_weight[e])
-                    .sum::<Vector3>();
-                n.try_normalize(1e-12).unwrap_or(self.rest_normals[v])
-            })
-            .collect()
+        let mut normals = Vec::new();
+        self.blended_normals_into(predictions, &mut normals);
+        normals
+    }
+
+    /// [`PatchModel::blended_normals`] written over `out` (its buffer reused).
+    pub fn blended_normals_into(&self, predictions: &Predictions, out: &mut Vec<Vector3>) {
+        out.resize(self.vertex_count(), Vector3::zeros());
+        out.par_iter_mut().enumerate().for_each(|(v, normal)| {
+            let n = self
+                .blend_entries(v)
+                .map(|e| predictions.normal[e] * self.blend_weight[e])
+                .sum::<Vector3>();
+            *normal = n.try_normalize(1e-12).unwrap_or(self.rest_normals[v]);
+        });
     }
 
     /// The deformed mesh of `pose` (eq. 2).

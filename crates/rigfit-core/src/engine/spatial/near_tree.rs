@@ -45,6 +45,20 @@ struct LeafBox {
 }
 
 impl LeafBox {
+    /// The box of no point (every distance to it is infinite).
+    const EMPTY: Self = Self {
+        low: [f32::INFINITY; 3],
+        high: [f32::NEG_INFINITY; 3],
+    };
+
+    #[inline]
+    fn extend(&mut self, p: [f32; 3]) {
+        for a in 0..3 {
+            self.low[a] = self.low[a].min(p[a]);
+            self.high[a] = self.high[a].max(p[a]);
+        }
+    }
+
     /// Squared distance from `q` to the box of the leaf's points.
     #[inline]
     fn box_distance2(&self, q: [f32; 3]) -> f32 {
@@ -64,29 +78,56 @@ pub struct NearTree {
     leaves: Vec<LeafBlock>,
     boxes: Vec<LeafBox>,
     nodes: Vec<Node>,
+    /// The points with their ids, reordered by the build (kept for the next one).
+    items: Vec<([f32; 3], u32)>,
 }
 
 impl NearTree {
     /// The tree of `points`, the `i`-th with id `ids[i]`. Coordinates must be finite.
     pub fn new(points: &[[f32; 3]], ids: &[u32]) -> Self {
+        let mut tree = Self::default();
+        tree.rebuild(points, ids);
+        tree
+    }
+
+    /// Makes this the tree of `points` (as [`NearTree::new`]), reusing its buffers: a frame
+    /// builds a tree every E-step, and fresh buffers of this size cost page faults.
+    pub fn rebuild(&mut self, points: &[[f32; 3]], ids: &[u32]) {
         debug_assert_eq!(points.len(), ids.len());
-        let mut items: Vec<([f32; 3], u32)> =
-            points.iter().copied().zip(ids.iter().copied()).collect();
-        if items.is_empty() {
-            return Self::default();
+        self.len = points.len();
+        self.items.clear();
+        self.items
+            .extend(points.iter().copied().zip(ids.iter().copied()));
+        let n_leaves = points.len().div_ceil(LEAF);
+        // Every inner node has two children: one node fewer than twice the leaves.
+        let n_nodes = (2 * n_leaves).saturating_sub(1);
+        let empty_node = Node {
+            start: 0,
+            split: 0.0,
+            axis: LEAF_AXIS,
+            second: 0,
+        };
+        self.nodes.clear();
+        self.nodes.resize(n_nodes, empty_node);
+        self.leaves.clear();
+        self.leaves.resize(n_leaves, PADDED_LEAF);
+        self.boxes.clear();
+        self.boxes.resize(n_leaves, LeafBox::EMPTY);
+        if points.is_empty() {
+            return;
         }
         let cell = bounding_cell(points);
-        let Subtree {
-            nodes,
-            leaves,
-            boxes,
-        } = build_in_parallel(&mut items, cell);
-        Self {
-            len: points.len(),
-            leaves,
-            boxes,
-            nodes,
-        }
+        build_in_place(
+            &mut self.items,
+            cell,
+            Placement {
+                nodes: &mut self.nodes,
+                first_node: 0,
+                leaves: &mut self.leaves,
+                boxes: &mut self.boxes,
+                first_leaf: 0,
+            },
+        );
     }
 
     pub fn len(&self) -> usize {
@@ -203,66 +244,89 @@ fn bounding_cell(points: &[[f32; 3]]) -> Cell {
 /// Subtrees of at least this many points build their two halves on two threads.
 const PARALLEL_BUILD: usize = 4096;
 
-/// A subtree built on its own: its nodes (depth first, indices from its root), its leaves
-/// and their boxes.
-struct Subtree {
-    nodes: Vec<Node>,
-    leaves: Vec<LeafBlock>,
-    boxes: Vec<LeafBox>,
+/// A leaf with no point: every slot at infinity.
+const PADDED_LEAF: LeafBlock = LeafBlock {
+    x: [f32::INFINITY; LEAF],
+    y: [f32::INFINITY; LEAF],
+    z: [f32::INFINITY; LEAF],
+    id: [u32::MAX; LEAF],
+};
+
+/// Where a subtree goes: its nodes (the first is its root, at index `first_node` of the
+/// tree), its leaves and their boxes (the first at `first_leaf`). A subtree of `m` points
+/// has `m.div_ceil(LEAF)` leaves and one node fewer than twice as many, so that the halves
+/// of a cell know their places before they are built, and build side by side.
+struct Placement<'a> {
+    nodes: &'a mut [Node],
+    first_node: usize,
+    leaves: &'a mut [LeafBlock],
+    boxes: &'a mut [LeafBox],
+    first_leaf: usize,
 }
 
-/// The tree [`build`] makes, with the halves of large cells built side by side and joined:
-/// the same nodes in the same order.
-fn build_in_parallel(items: &mut [([f32; 3], u32)], cell: Cell) -> Subtree {
-    if items.len() < PARALLEL_BUILD {
-        let mut nodes = Vec::with_capacity(2 * items.len() / LEAF + 1);
-        let mut leaves = Vec::with_capacity(items.len().div_ceil(LEAF));
-        let mut boxes = Vec::with_capacity(items.len().div_ceil(LEAF));
-        build(items, cell, &mut nodes, &mut (&mut leaves, &mut boxes));
-        return Subtree {
-            nodes,
-            leaves,
-            boxes,
-        };
-    }
-    let (root, mid, (left_cell, right_cell)) = split_cell(items, cell);
-    let (left, right) = items.split_at_mut(mid);
-    let (left, right) = rayon::join(
-        || build_in_parallel(left, left_cell),
-        || build_in_parallel(right, right_cell),
-    );
-    let mut nodes = Vec::with_capacity(1 + left.nodes.len() + right.nodes.len());
-    nodes.push(Node {
-        second: (1 + left.nodes.len()) as u32,
-        ..root
-    });
-    // Each half's node and leaf indices move by the nodes and leaves placed before it.
-    let shifted = |nodes: Vec<Node>, by_nodes: usize, by_leaves: usize| {
-        nodes.into_iter().map(move |n| {
-            if n.axis == LEAF_AXIS {
-                Node {
-                    start: n.start + by_leaves as u32,
-                    ..n
-                }
-            } else {
-                Node {
-                    second: n.second + by_nodes as u32,
-                    ..n
-                }
-            }
-        })
-    };
-    let (left_nodes, left_leaves) = (left.nodes.len(), left.leaves.len());
-    nodes.extend(shifted(left.nodes, 1, 0));
-    nodes.extend(shifted(right.nodes, 1 + left_nodes, left_leaves));
-    let mut leaves = left.leaves;
-    leaves.extend(right.leaves);
-    let mut boxes = left.boxes;
-    boxes.extend(right.boxes);
-    Subtree {
+/// Builds the subtree of `items` (reordered in place) in `cell` into `place`, depth first
+/// (an inner node's first child follows it): splits the cell's widest side near the median,
+/// at a multiple of [`LEAF`] so that every leaf but the last is full. The halves of a large
+/// cell build on two threads.
+fn build_in_place(items: &mut [([f32; 3], u32)], cell: Cell, place: Placement) {
+    let Placement {
         nodes,
+        first_node,
         leaves,
         boxes,
+        first_leaf,
+    } = place;
+    if items.len() <= LEAF {
+        let (leaf, bounds) = (&mut leaves[0], &mut boxes[0]);
+        *leaf = PADDED_LEAF;
+        *bounds = LeafBox::EMPTY;
+        for (i, (p, id)) in items.iter().enumerate() {
+            (leaf.x[i], leaf.y[i], leaf.z[i], leaf.id[i]) = (p[0], p[1], p[2], *id);
+            bounds.extend(*p);
+        }
+        nodes[0] = Node {
+            start: first_leaf as u32,
+            split: 0.0,
+            axis: LEAF_AXIS,
+            second: 0,
+        };
+        return;
+    }
+    let (node, mid, (left_cell, right_cell)) = split_cell(items, cell);
+    let in_parallel = items.len() >= PARALLEL_BUILD;
+    let left_leaves = mid / LEAF;
+    let left_nodes = 2 * left_leaves - 1;
+    let (root, below) = nodes.split_first_mut().expect("a node per subtree");
+    *root = Node {
+        second: (first_node + 1 + left_nodes) as u32,
+        ..node
+    };
+    let (left_node_slots, right_node_slots) = below.split_at_mut(left_nodes);
+    let (left_leaf_slots, right_leaf_slots) = leaves.split_at_mut(left_leaves);
+    let (left_box_slots, right_box_slots) = boxes.split_at_mut(left_leaves);
+    let (left_items, right_items) = items.split_at_mut(mid);
+    let left = Placement {
+        nodes: left_node_slots,
+        first_node: first_node + 1,
+        leaves: left_leaf_slots,
+        boxes: left_box_slots,
+        first_leaf,
+    };
+    let right = Placement {
+        nodes: right_node_slots,
+        first_node: first_node + 1 + left_nodes,
+        leaves: right_leaf_slots,
+        boxes: right_box_slots,
+        first_leaf: first_leaf + left_leaves,
+    };
+    if in_parallel {
+        rayon::join(
+            || build_in_place(left_items, left_cell, left),
+            || build_in_place(right_items, right_cell, right),
+        );
+    } else {
+        build_in_place(left_items, left_cell, left);
+        build_in_place(right_items, right_cell, right);
     }
 }
 
@@ -289,85 +353,57 @@ fn split_cell(items: &mut [([f32; 3], u32)], cell: Cell) -> (Node, usize, (Cell,
     (node, mid, ((low, left_high), (right_low, high)))
 }
 
-/// Builds the subtree of `items` (reordered in place) in `cell`, pushing its nodes depth
-/// first and its leaves in order: splits the cell's widest side near the median, at a
-/// multiple of [`LEAF`] so that every leaf but the last is full.
-fn build(
-    items: &mut [([f32; 3], u32)],
-    cell: Cell,
-    nodes: &mut Vec<Node>,
-    leaves: &mut (&mut Vec<LeafBlock>, &mut Vec<LeafBox>),
-) {
-    let here = nodes.len();
-    if items.len() <= LEAF {
-        let mut leaf = LeafBlock {
-            x: [f32::INFINITY; LEAF],
-            y: [f32::INFINITY; LEAF],
-            z: [f32::INFINITY; LEAF],
-            id: [u32::MAX; LEAF],
-        };
-        let mut bounds = LeafBox {
-            low: [f32::INFINITY; 3],
-            high: [f32::NEG_INFINITY; 3],
-        };
-        for (i, (p, id)) in items.iter().enumerate() {
-            (leaf.x[i], leaf.y[i], leaf.z[i], leaf.id[i]) = (p[0], p[1], p[2], *id);
-            for a in 0..3 {
-                bounds.low[a] = bounds.low[a].min(p[a]);
-                bounds.high[a] = bounds.high[a].max(p[a]);
-            }
-        }
-        nodes.push(Node {
-            start: leaves.0.len() as u32,
-            split: 0.0,
-            axis: LEAF_AXIS,
-            second: 0,
-        });
-        leaves.0.push(leaf);
-        leaves.1.push(bounds);
-        return;
-    }
-    let (node, mid, (left_cell, right_cell)) = split_cell(items, cell);
-    nodes.push(node);
-    let (left, right) = items.split_at_mut(mid);
-    build(left, left_cell, nodes, leaves);
-    nodes[here].second = nodes.len() as u32;
-    build(right, right_cell, nodes, leaves);
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
 
+    /// A tree rebuilt over the buffers of a larger one, or built on one thread, is the tree
+    /// built afresh: the same nodes and leaves, every leaf full but the last.
     #[test]
-    fn built_in_parallel_is_the_tree_built_in_one_go() {
+    fn rebuilt_in_place_is_the_tree_built_afresh() {
         let mut rng = rand::rngs::StdRng::seed_from_u64(8);
-        let points: Vec<[f32; 3]> = (0..20_000)
-            .map(|_| {
-                [
-                    rng.random::<f32>(),
-                    rng.random::<f32>(),
-                    rng.random::<f32>(),
-                ]
-            })
-            .collect();
+        let mut cloud = |n: usize| -> Vec<[f32; 3]> {
+            (0..n)
+                .map(|_| {
+                    [
+                        rng.random::<f32>(),
+                        rng.random::<f32>(),
+                        rng.random::<f32>(),
+                    ]
+                })
+                .collect()
+        };
+        let (points, other) = (cloud(20_000), cloud(31_000));
         let ids: Vec<u32> = (0..points.len() as u32).collect();
-        let tree = NearTree::new(&points, &ids);
-        let mut items: Vec<([f32; 3], u32)> = points.iter().copied().zip(ids).collect();
-        let (mut nodes, mut leaves, mut boxes) = (Vec::new(), Vec::new(), Vec::new());
-        let cell = bounding_cell(&points);
-        build(&mut items, cell, &mut nodes, &mut (&mut leaves, &mut boxes));
-        assert_eq!(tree.nodes.len(), nodes.len());
-        for (a, b) in tree.nodes.iter().zip(&nodes) {
-            assert_eq!(
-                (a.start, a.split, a.axis, a.second),
-                (b.start, b.split, b.axis, b.second)
-            );
+        let other_ids: Vec<u32> = (0..other.len() as u32).collect();
+        let fresh = NearTree::new(&points, &ids);
+        let mut reused = NearTree::new(&other, &other_ids);
+        reused.rebuild(&points, &ids);
+        let one_thread = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .expect("pool")
+            .install(|| NearTree::new(&points, &ids));
+        for tree in [&reused, &one_thread] {
+            assert_eq!(tree.len(), fresh.len());
+            assert_eq!(tree.nodes.len(), fresh.nodes.len());
+            for (a, b) in tree.nodes.iter().zip(&fresh.nodes) {
+                assert_eq!(
+                    (a.start, a.split, a.axis, a.second),
+                    (b.start, b.split, b.axis, b.second)
+                );
+            }
+            assert_eq!(tree.leaves.len(), fresh.leaves.len());
+            for (a, b) in tree.leaves.iter().zip(&fresh.leaves) {
+                assert_eq!(a.id, b.id);
+            }
         }
-        for (a, b) in tree.leaves.iter().zip(&leaves) {
-            assert_eq!(a.id, b.id);
+        let last = fresh.leaves.len() - 1;
+        for leaf in &fresh.leaves[..last] {
+            assert!(leaf.id.iter().all(|&id| id != u32::MAX));
         }
+        assert_eq!(fresh.nodes.len(), 2 * fresh.leaves.len() - 1);
     }
 
     #[test]

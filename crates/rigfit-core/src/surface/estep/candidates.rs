@@ -6,6 +6,7 @@
 use rayon::prelude::*;
 
 use super::Observations;
+use super::VertexTargets;
 use super::hypotheses::Hypotheses;
 use crate::engine::spatial::{
     MAX_NEAREST, NearTree, NearestFew, distance2, morton_order, to_local,
@@ -58,6 +59,21 @@ pub struct EStepCache {
     /// `vertex_drift[t][v]`: how far the hypotheses of `v` and of its neighbours moved (the
     /// largest), summed over E-steps `1..=t`.
     vertex_drift: Vec<Vec<f32>>,
+    /// The last E-step's hypotheses and their kd-tree, their buffers reused by the next.
+    pub(super) hypotheses: Hypotheses,
+    tree: NearTree,
+    /// Per-vertex sums no longer needed, their buffers reused by the next posteriors.
+    pub(super) spare_sums: Vec<VertexTargets>,
+}
+
+impl EStepCache {
+    /// Hands back an E-step's sums once they are no longer needed: the next E-step writes
+    /// over their buffers.
+    pub fn recycle(&mut self, targets: VertexTargets) {
+        if self.spare_sums.len() < rayon::current_num_threads() {
+            self.spare_sums.push(targets);
+        }
+    }
 }
 
 impl EStepCache {
@@ -160,7 +176,12 @@ impl EStepCache {
             let total = self.drift.last().copied().unwrap_or(0.0) + largest;
             self.drift.push(total);
         }
-        self.previous.clone_from(&predictions.at);
+        // Copied in parallel: a megabyte or more, every E-step.
+        self.previous.resize(predictions.at.len(), Point3::origin());
+        self.previous
+            .par_chunks_mut(8192)
+            .zip(predictions.at.par_chunks(8192))
+            .for_each(|(to, from)| to.copy_from_slice(from));
         fresh
     }
 
@@ -245,7 +266,8 @@ impl EStepCache {
         }
         let slots = self.slots;
         let now = self.now();
-        let tree = NearTree::new(&hypotheses.local, &hypotheses.entry);
+        self.tree.rebuild(&hypotheses.local, &hypotheses.entry);
+        let tree = &self.tree;
         let (order, list, count) = (&self.order, &self.list, &self.count);
         let (origin, packed) = (hypotheses.origin, &hypotheses.packed);
         // Per chunk of points searched: the rank, count and cover of each, and their lists.

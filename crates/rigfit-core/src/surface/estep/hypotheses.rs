@@ -11,6 +11,7 @@ use crate::surface::model::{PatchModel, Predictions};
 /// The hypotheses of a pose that are worth a look, vertex by vertex: each vertex predicted by
 /// its own patch, and by each neighbouring patch whose prediction differs from that by more
 /// than `merge` (eq. 1; the others add nothing).
+#[derive(Clone, Debug, Default)]
 pub(super) struct Hypotheses {
     /// Every blend entry packed for the posterior loop, which reads them in random order.
     pub(super) packed: Vec<PackedHypothesis>,
@@ -33,22 +34,31 @@ pub(super) struct PackedHypothesis {
 }
 
 impl Hypotheses {
-    pub(super) fn new(model: &PatchModel, predictions: &Predictions, merge: f64) -> Self {
+    /// Fills the hypotheses of a pose in place, their buffers reused (an E-step makes them
+    /// every iteration: fresh buffers of this size cost page faults).
+    pub(super) fn refill(&mut self, model: &PatchModel, predictions: &Predictions, merge: f64) {
         let at = &predictions.at;
         let origin = at.first().copied().unwrap_or_else(Point3::origin);
-        let packed: Vec<PackedHypothesis> = (0..at.len())
-            .into_par_iter()
-            .map(|e| {
-                let v = model.blend_vertex[e] as usize;
-                let normal = predictions.normal[e];
-                PackedHypothesis {
-                    at: to_local(&at[e], &origin),
-                    vertex: v as u32,
-                    normal: [normal.x as f32, normal.y as f32, normal.z as f32],
-                    patch: model.vertex_patch[v],
+        self.origin = origin;
+        self.packed.resize(at.len(), PackedHypothesis::default());
+        const CHUNK: usize = 2048;
+        self.packed
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each(|(chunk, packed)| {
+                for (i, h) in packed.iter_mut().enumerate() {
+                    let e = chunk * CHUNK + i;
+                    let v = model.blend_vertex[e] as usize;
+                    let normal = predictions.normal[e];
+                    *h = PackedHypothesis {
+                        at: to_local(&at[e], &origin),
+                        vertex: v as u32,
+                        normal: [normal.x as f32, normal.y as f32, normal.z as f32],
+                        patch: model.vertex_patch[v],
+                    };
                 }
-            })
-            .collect();
+            });
+        let packed = &self.packed;
         let merge2 = merge * merge;
         // Chosen vertex by vertex in runs of vertices side by side, then joined in order.
         const RUN: usize = 1024;
@@ -71,18 +81,11 @@ impl Hypotheses {
                 (entry, local)
             })
             .collect();
-        let kept = runs.iter().map(|(e, _)| e.len()).sum();
-        let mut entry = Vec::with_capacity(kept);
-        let mut local = Vec::with_capacity(kept);
+        self.entry.clear();
+        self.local.clear();
         for (e, l) in runs {
-            entry.extend_from_slice(&e);
-            local.extend_from_slice(&l);
-        }
-        Self {
-            packed,
-            entry,
-            origin,
-            local,
+            self.entry.extend_from_slice(&e);
+            self.local.extend_from_slice(&l);
         }
     }
 }

@@ -25,7 +25,6 @@ pub use observations::{Observations, estimate_normals};
 pub use posteriors::VertexTargets;
 
 use candidates::MAX_SLOTS;
-use hypotheses::Hypotheses;
 use posteriors::{Mixture, posteriors};
 
 use super::model::{PatchModel, PatchPose, Predictions};
@@ -108,12 +107,25 @@ pub fn e_step_predicted(
     let slots = options.max_candidates.clamp(1, MAX_SLOTS);
     // Predictions of one vertex closer than this to its own patch's add nothing to search.
     let merge = 0.3 * model.mean_edge;
-    let hypotheses = Hypotheses::new(model, predictions, merge);
+    let mut hypotheses = std::mem::take(&mut cache.hypotheses);
+    hypotheses.refill(model, predictions, merge);
     let fresh = cache.begin(model, predictions, data, slots);
     // Keep or search each list again, by how far the hypotheses around its vertices moved
     // since it was searched.
     let ranks = cache.ranks_to_search(model, fresh, data.points.len(), cutoff);
     cache.search(&ranks, &hypotheses, data, cutoff, merge);
     let mixture = Mixture::new(model, data, positions, sigma, cutoff, options);
-    posteriors(model, &mixture, &hypotheses, positions, data, cache)
+    let mut spare = std::mem::take(&mut cache.spare_sums);
+    let targets = posteriors(
+        model,
+        &mixture,
+        &hypotheses,
+        positions,
+        data,
+        cache,
+        &mut spare,
+    );
+    cache.spare_sums = spare;
+    cache.hypotheses = hypotheses;
+    targets
 }

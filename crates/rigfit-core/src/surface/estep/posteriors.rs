@@ -46,15 +46,16 @@ impl VertexTargets {
         self.weight.iter().sum()
     }
 
-    /// Zero sums for `n_vertices` vertices.
-    fn zeros(n_vertices: usize) -> Self {
-        Self {
-            weight: vec![0.0; n_vertices],
-            weighted_sum: vec![Vector3::zeros(); n_vertices],
-            weighted_square: vec![0.0; n_vertices],
-            inliers: 0,
-            weighted_residual: 0.0,
+    /// Zero sums for `n_vertices` vertices, written over these (their buffers reused).
+    fn reset(&mut self, n_vertices: usize) {
+        for (buffer, zero) in [(&mut self.weight, 0.0), (&mut self.weighted_square, 0.0)] {
+            buffer.clear();
+            buffer.resize(n_vertices, zero);
         }
+        self.weighted_sum.clear();
+        self.weighted_sum.resize(n_vertices, Vector3::zeros());
+        self.inliers = 0;
+        self.weighted_residual = 0.0;
     }
 
     /// Adds another task's sums.
@@ -162,8 +163,9 @@ struct Likelihood {
 }
 
 /// Posteriors (eq. 8) summed per vertex over the points taking part, with each point's
-/// candidates from `cache`: each task (one per thread) adds its points into its own sums,
-/// and the tasks' sums are added at the end.
+/// candidates from `cache`: each task (one per thread) adds its points into its own sums, and
+/// the tasks' sums are added at the end. The sums are written over the buffers of `spare`
+/// (sums no longer needed: fresh buffers of a whole mesh's size cost page faults).
 pub(super) fn posteriors(
     model: &PatchModel,
     mixture: &Mixture,
@@ -171,27 +173,33 @@ pub(super) fn posteriors(
     positions: &[Point3],
     data: &Observations,
     cache: &EStepCache,
+    spare: &mut Vec<VertexTargets>,
 ) -> VertexTargets {
     let n_vertices = model.vertex_count();
     let slots = cache.slots;
     let ActiveRanks { stride, active } = cache.active_ranks(data.points.len());
-    let empty = || VertexTargets::zeros(n_vertices);
     let chunks = active.div_ceil(POSTERIOR_CHUNK);
     // As many tasks as threads: each task's sums are a whole mesh's to zero and to add.
     let per_task = chunks.div_ceil(rayon::current_num_threads()).max(1);
-    (0..chunks)
-        .into_par_iter()
-        .with_min_len(per_task)
-        .fold(empty, |mut sums, c| {
-            // Per point: the best vertex of each patch found, and then its squared distance
-            // to the deformed vertex and its likelihood.
+    let tasks = chunks.div_ceil(per_task).max(1);
+    spare.resize_with(tasks, VertexTargets::default);
+    let mut task_sums = spare.split_off(spare.len() - tasks);
+    task_sums
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(task, sums)| {
+            sums.reset(n_vertices);
+            // Per point: the best vertex of each patch found, and then its squared distance to
+            // the deformed vertex and its likelihood.
             let mut found = [PatchNearest {
                 patch: 0,
                 vertex: 0,
                 d2: 0.0,
             }; MAX_SLOTS];
             let mut likelihood = [Likelihood { d2: 0.0, p: 0.0 }; MAX_SLOTS];
-            for a in c * POSTERIOR_CHUNK..((c + 1) * POSTERIOR_CHUNK).min(active) {
+            let points = task * per_task * POSTERIOR_CHUNK
+                ..((task + 1) * per_task * POSTERIOR_CHUNK).min(active);
+            for a in points {
                 let r = a * stride;
                 let i = cache.order[r] as usize;
                 let count = stands_for(data, cache, r, stride);
@@ -201,7 +209,7 @@ pub(super) fn posteriors(
                     continue;
                 }
                 add_posteriors(
-                    &mut sums,
+                    sums,
                     mixture,
                     positions,
                     &data.points[i],
@@ -210,12 +218,14 @@ pub(super) fn posteriors(
                     &mut likelihood,
                 );
             }
-            sums
-        })
-        .reduce(empty, |mut a, b| {
-            a.add_sums(&b);
-            a
-        })
+        });
+    let mut tasks = task_sums.into_iter();
+    let mut total = tasks.next().expect("one task at least");
+    for sums in tasks {
+        total.add_sums(&sums);
+        spare.push(sums);
+    }
+    total
 }
 
 /// How many observed points the point at rank `r` stands for: its own count, and when the
