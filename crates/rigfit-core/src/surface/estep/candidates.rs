@@ -91,6 +91,12 @@ impl EStepCache {
     }
 }
 
+/// Makes `buffer` `len` copies of `value`, over its old contents.
+fn refill<T: Clone>(buffer: &mut Vec<T>, len: usize, value: T) {
+    buffer.clear();
+    buffer.resize(len, value);
+}
+
 /// `searched_at` of a point no E-step has searched yet.
 const NEVER_SEARCHED: u32 = u32::MAX;
 
@@ -138,13 +144,15 @@ impl EStepCache {
             self.data = data_id;
             self.slots = slots;
             self.order = morton_order(&data.points);
-            self.list = vec![0; n_points * slots];
-            self.count = vec![0; n_points];
-            self.cover = vec![0.0; n_points];
-            self.searched_at = vec![NEVER_SEARCHED; n_points];
-            self.drift = vec![0.0];
-            self.vertex_drift.clear();
-            self.vertex_drift.push(vec![0.0; n_vertices]);
+            // Written over the last frame's buffers (fresh ones cost page faults).
+            refill(&mut self.list, n_points * slots, 0);
+            refill(&mut self.count, n_points, 0);
+            refill(&mut self.cover, n_points, 0.0);
+            refill(&mut self.searched_at, n_points, NEVER_SEARCHED);
+            refill(&mut self.drift, 1, 0.0);
+            let mut first = self.vertex_drift.drain(..).next().unwrap_or_default();
+            refill(&mut first, n_vertices, 0.0);
+            self.vertex_drift.push(first);
         } else {
             // How far each vertex's hypotheses moved since the last E-step, the largest over
             // the vertex and its neighbours (a hypothesis one ring away may come into a list).
