@@ -277,7 +277,7 @@ impl EStepCache {
         self.tree.rebuild(&hypotheses.local, &hypotheses.entry);
         let tree = &self.tree;
         let (order, list, count) = (&self.order, &self.list, &self.count);
-        let (origin, packed) = (hypotheses.origin, &hypotheses.packed);
+        let (origin, packed, kept) = (hypotheses.origin, &hypotheses.packed, &hypotheses.kept);
         // Per chunk of points searched: the rank, count and cover of each, and their lists.
         let found: Vec<SearchedChunk> = ranks
             .par_chunks(256)
@@ -291,7 +291,8 @@ impl EStepCache {
                     let y = data.points[order[r as usize] as usize];
                     let q = to_local(&y, &origin);
                     // A full list bounds the search: each of its entries is within `merge`
-                    // of a kept hypothesis, so as many lie within its farthest plus `merge`.
+                    // of a kept hypothesis, so as many lie within its farthest plus `merge`
+                    // (within its farthest when all of them are still kept).
                     let listed = &list[r as usize * slots..][..count[r as usize] as usize];
                     let mut reach = cutoff;
                     if listed.len() == slots {
@@ -299,7 +300,9 @@ impl EStepCache {
                             .iter()
                             .map(|&e| distance2(&packed[e as usize].at, &q))
                             .fold(0.0, f32::max);
-                        reach = reach.min((farthest2 as f64).sqrt() + merge);
+                        let all_kept = listed.iter().all(|&e| kept[e as usize]);
+                        let slack = if all_kept { 0.0 } else { merge };
+                        reach = reach.min((farthest2 as f64).sqrt() + slack);
                     }
                     // So does the last point's full list (points come in spatial order, the
                     // last one is near): all of it lies within its farthest plus the gap.

@@ -18,6 +18,8 @@ pub(super) struct Hypotheses {
     /// The blend entries kept, vertex by vertex, and their positions in single precision
     /// relative to `origin` (for choosing neighbours, not for the posteriors).
     pub(super) entry: Vec<u32>,
+    /// `kept[e]`: blend entry `e` is among `entry` (in the E-step's kd-tree).
+    pub(super) kept: Vec<bool>,
     pub(super) origin: Point3,
     pub(super) local: Vec<[f32; 3]>,
 }
@@ -86,6 +88,11 @@ impl Hypotheses {
         for (e, l) in runs {
             self.entry.extend_from_slice(&e);
             self.local.extend_from_slice(&l);
+        }
+        self.kept.clear();
+        self.kept.resize(at.len(), false);
+        for &e in &self.entry {
+            self.kept[e as usize] = true;
         }
     }
 }
