@@ -26,6 +26,12 @@ pub(super) fn placements_and_turns(setup: &Setup, root: usize) -> (Vec<Pose>, Ve
     (rigid_placements(&thin, root), turned_starts(&thin, root))
 }
 
+/// The rigid placements alone (the paper's method starts from the best one), judged on the
+/// same thinned setup as in [`placements_and_turns`].
+pub(super) fn placements(setup: &Setup, root: usize) -> Vec<Pose> {
+    rigid_placements(&setup.thinned(3, 2), root)
+}
+
 /// Rigid alignments of the whole character from [`HEADINGS`] headings about y and about z
 /// (files are y-up or z-up, and strokes do not say which), the [`KEPT_PLACEMENTS`] best
 /// explained first; `thin` is the solve's thinned setup.

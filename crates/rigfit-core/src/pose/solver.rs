@@ -9,7 +9,7 @@ use super::chains::{Assignment, stroke_length, stroke_residuals};
 use super::fitting::{FULL_FIT_STEPS, Fitter};
 use super::local_moves::improve;
 use super::mirror_image::bone_mirrors;
-use super::multi_start::placements_and_turns;
+use super::multi_start::{placements, placements_and_turns};
 use super::setup::Setup;
 use super::{PoseError, PoseResult};
 use crate::joint_model::limit_excess;
@@ -156,7 +156,7 @@ impl<'a> Solver<'a> {
         let last = *sigmas.last().unwrap_or(&opts.sigma_end);
         if !opts.chain_assignment {
             if let Some(root) = placed_root {
-                starts = placements_and_turns(setup, root).0;
+                starts = placements(setup, root);
             }
             self.fitter.pose = starts.into_iter().next().expect("at least one start");
             anneal(&self.setup, &mut self.fitter, &all, &sigmas, None);

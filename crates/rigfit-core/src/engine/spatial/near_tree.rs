@@ -107,11 +107,9 @@ impl NearTree {
             axis: LEAF_AXIS,
             second: 0,
         };
-        self.nodes.clear();
+        // Only resized: the build writes every node, leaf and box.
         self.nodes.resize(n_nodes, empty_node);
-        self.leaves.clear();
         self.leaves.resize(n_leaves, PADDED_LEAF);
-        self.boxes.clear();
         self.boxes.resize(n_leaves, LeafBox::EMPTY);
         if points.is_empty() {
             return;

@@ -6,8 +6,8 @@
 use rayon::prelude::*;
 
 use super::Observations;
-use super::VertexTargets;
 use super::hypotheses::Hypotheses;
+use super::{VertexTargets, refill};
 use crate::engine::spatial::{
     MAX_NEAREST, NearTree, NearestFew, distance2, morton_order, to_local,
 };
@@ -89,12 +89,6 @@ impl EStepCache {
     pub fn set_stride(&mut self, stride: usize) {
         self.stride = stride.max(1);
     }
-}
-
-/// Makes `buffer` `len` copies of `value`, over its old contents.
-fn refill<T: Clone>(buffer: &mut Vec<T>, len: usize, value: T) {
-    buffer.clear();
-    buffer.resize(len, value);
 }
 
 /// `searched_at` of a point no E-step has searched yet.

@@ -4,6 +4,7 @@
 
 use rayon::prelude::*;
 
+use super::refill;
 use crate::engine::spatial::to_local;
 use crate::math::Point3;
 use crate::surface::model::{PatchModel, Predictions};
@@ -89,8 +90,7 @@ impl Hypotheses {
             self.entry.extend_from_slice(&e);
             self.local.extend_from_slice(&l);
         }
-        self.kept.clear();
-        self.kept.resize(at.len(), false);
+        refill(&mut self.kept, at.len(), false);
         for &e in &self.entry {
             self.kept[e as usize] = true;
         }

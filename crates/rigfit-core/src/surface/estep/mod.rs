@@ -25,6 +25,13 @@ pub use observations::{Observations, estimate_normals};
 pub use posteriors::VertexTargets;
 
 use candidates::MAX_SLOTS;
+
+/// Makes `buffer` `len` copies of `value`, over its old contents (the E-step's buffers are
+/// reused from iteration to iteration: fresh ones of their size cost page faults).
+fn refill<T: Clone>(buffer: &mut Vec<T>, len: usize, value: T) {
+    buffer.clear();
+    buffer.resize(len, value);
+}
 use posteriors::{Mixture, posteriors};
 
 use super::model::{PatchModel, PatchPose, Predictions};

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use super::candidates::{ActiveRanks, EStepCache, MAX_SLOTS};
 use super::hypotheses::Hypotheses;
-use super::{DataTermOptions, Observations};
+use super::{DataTermOptions, Observations, refill};
 use crate::engine::correspondence::{Evidence, GaussianKernel};
 use crate::engine::spatial::{distance2, to_local};
 use crate::geometry::Aabb;
@@ -48,12 +48,9 @@ impl VertexTargets {
 
     /// Zero sums for `n_vertices` vertices, written over these (their buffers reused).
     fn reset(&mut self, n_vertices: usize) {
-        for (buffer, zero) in [(&mut self.weight, 0.0), (&mut self.weighted_square, 0.0)] {
-            buffer.clear();
-            buffer.resize(n_vertices, zero);
-        }
-        self.weighted_sum.clear();
-        self.weighted_sum.resize(n_vertices, Vector3::zeros());
+        refill(&mut self.weight, n_vertices, 0.0);
+        refill(&mut self.weighted_sum, n_vertices, Vector3::zeros());
+        refill(&mut self.weighted_square, n_vertices, 0.0);
         self.inliers = 0;
         self.weighted_residual = 0.0;
     }
@@ -183,7 +180,7 @@ pub(super) fn posteriors(
     let per_task = chunks.div_ceil(rayon::current_num_threads()).max(1);
     let tasks = chunks.div_ceil(per_task).max(1);
     spare.resize_with(tasks, VertexTargets::default);
-    let mut task_sums = spare.split_off(spare.len() - tasks);
+    let mut task_sums = std::mem::take(spare);
     task_sums
         .par_iter_mut()
         .enumerate()
