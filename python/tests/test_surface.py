@@ -13,7 +13,7 @@ import pytest
 import rigfit
 from conftest import REPO, asset
 
-OPTIONS = ["patch_radius", "outliers", "rigidity", "iterations", "merge", "coarse", "fast_motion"]
+OPTIONS = ["patch_radius", "outliers", "rigidity", "iterations", "merge", "coarse", "fast_motion", "piece_tree"]
 
 
 def sphere(rings=12, segments=16, radius=1.0):
@@ -43,7 +43,7 @@ def test_the_defaults_are_the_command_lines_in_the_signature_and_the_stubs():
     v, f = sphere()
     options = rigfit.SurfaceTracker(v, f).options
     assert options == {"patch_radius": 0.06, "outliers": 0.15, "rigidity": 4.0, "iterations": 25, "merge": 0.0, "coarse": 4,
-                       "fast_motion": False}
+                       "fast_motion": False, "piece_tree": True}
     signature = inspect.signature(rigfit.SurfaceTracker)
     assert {k: signature.parameters[k].default for k in OPTIONS} == options
     stubs = ast.parse(Path(rigfit.__file__).with_name("__init__.pyi").read_text())
@@ -82,6 +82,7 @@ def test_fast_motion_is_an_option_of_its_own():
     v, f = sphere()
     tracker = rigfit.SurfaceTracker(v, f, fast_motion=True, coarse=2)
     assert tracker.options["fast_motion"] is True and tracker.options["coarse"] == 2
+    assert rigfit.SurfaceTracker(v, f, piece_tree=False).options["piece_tree"] is False
     moved = v + [0.02, 0.01, 0.0]
     for _ in range(2):
         fit = tracker.track(moved, faces=f)
@@ -228,7 +229,7 @@ def test_the_command_line_writes_the_same_vertices_as_python(sequence):
     args = [str(binary), "surface", str(folder / "reference.ply"), *map(str, sequence["frames"]), "-o", str(out),
             "--patch-radius", str(o["patch_radius"]), "--outliers", str(o["outliers"]), "--rigidity", str(o["rigidity"]),
             "--iterations", str(o["iterations"]), "--merge", str(o["merge"]), "--coarse", str(o["coarse"]),
-            *(["--fast-motion"] if o["fast_motion"] else [])]
+            *(["--fast-motion"] if o["fast_motion"] else []), *([] if o["piece_tree"] else ["--no-piece-tree"])]
     run = subprocess.run(args, capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, f"{binary}: {run.stderr}"
     for k, fit in enumerate(sequence["fits"]):

@@ -103,8 +103,10 @@ impl PySurfaceFit {
 /// ``iterations`` (EM iterations per frame at most, 1 to 1000), ``merge`` (merge each
 /// frame's points by cubes of this many point spacings first; 0: every point, >= 0),
 /// ``coarse`` (a frame's first iterations, two or four with ``fast_motion``, use one point
-/// in this many, 1 to 1024) and ``fast_motion`` (``--fast-motion``: for limbs that move a
-/// tenth of the object or more between frames, at about twice the time on such frames).
+/// in this many, 1 to 1024), ``fast_motion`` (``--fast-motion``: for limbs that move a
+/// tenth of the object or more between frames, at about twice the time on such frames) and
+/// ``piece_tree`` (``False`` is ``--no-piece-tree``: a many-part object's patches start
+/// from their own motion continued, not from the pieces' kinematic tree).
 #[pyclass(module = "rigfit", name = "SurfaceTracker")]
 #[derive(Debug)]
 pub struct PySurfaceTracker {
@@ -129,7 +131,8 @@ impl PySurfaceTracker {
         merge = SurfaceOptions::default().merge_cell,
         coarse = SurfaceOptions::default().coarse_stride,
         fast_motion = false,
-    ), text_signature = "(vertices, faces, *, patch_radius=0.06, outliers=0.15, rigidity=4.0, iterations=25, merge=0.0, coarse=4, fast_motion=False)")]
+        piece_tree = true,
+    ), text_signature = "(vertices, faces, *, patch_radius=0.06, outliers=0.15, rigidity=4.0, iterations=25, merge=0.0, coarse=4, fast_motion=False, piece_tree=True)")]
     fn new(
         py: Python<'_>,
         vertices: &Bound<'_, PyAny>,
@@ -141,6 +144,7 @@ impl PySurfaceTracker {
         #[pyo3(from_py_with = merge)] merge: f64,
         #[pyo3(from_py_with = coarse)] coarse: usize,
         fast_motion: bool,
+        piece_tree: bool,
     ) -> PyResult<Self> {
         let mut options = if fast_motion {
             SurfaceOptions::fast_motion()
@@ -153,6 +157,9 @@ impl PySurfaceTracker {
         options.max_iterations = iterations;
         options.merge_cell = merge;
         options.coarse_stride = coarse;
+        if !piece_tree {
+            options.piece_tree = None;
+        }
         options
             .check()
             .map_err(|e| error(format!("{}: {}", e.option.keyword(), e.problem)))?;
@@ -238,7 +245,7 @@ impl PySurfaceTracker {
     }
 
     /// The options in force, by keyword (``patch_radius``, ``outliers``, ``rigidity``,
-    /// ``iterations``, ``merge``, ``coarse``, ``fast_motion``).
+    /// ``iterations``, ``merge``, ``coarse``, ``fast_motion``, ``piece_tree``).
     #[getter]
     fn options<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let o = &self.tracker.options;
@@ -250,6 +257,7 @@ impl PySurfaceTracker {
         d.set_item("merge", o.merge_cell)?;
         d.set_item("coarse", o.coarse_stride)?;
         d.set_item("fast_motion", self.fast_motion)?;
+        d.set_item("piece_tree", o.piece_tree.is_some())?;
         Ok(d)
     }
 }

@@ -60,6 +60,9 @@ fn main() {
     env_knobs::set("CONTACT_WIDTH", &mut options.patches.contact_width);
     env_knobs::set("PART_GAP", &mut options.patches.part_gap);
     env_knobs::set("STIFFNESS", &mut options.patches.contact_stiffness);
+    if std::env::var("NO_PIECE_TREE").is_ok() {
+        options.piece_tree = None;
+    }
     if std::env::var("NO_CARRY").is_ok() {
         options.carry_unseen = false;
     }

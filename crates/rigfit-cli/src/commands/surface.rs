@@ -55,6 +55,11 @@ pub struct SurfaceArgs {
     /// still travels. More accurate on such motion, at about twice the time on its frames.
     #[arg(long)]
     pub fast_motion: bool,
+    /// Do not start each frame of a many-part reference from its pieces' kinematic tree
+    /// (tracked by the articulated tracker; on by default for a reference of pieces that
+    /// touch): each patch starts from its own motion continued, as for one skin.
+    #[arg(long)]
+    pub no_piece_tree: bool,
     /// Draw a contact sheet of evenly spaced frames (the moved reference shaded flat over the
     /// frame's points) with inliers and time per frame, as a .png.
     #[arg(long)]
@@ -124,6 +129,9 @@ fn options(args: &SurfaceArgs) -> anyhow::Result<SurfaceOptions> {
     options.max_iterations = args.iterations;
     options.merge_cell = args.merge;
     options.coarse_stride = args.coarse;
+    if args.no_piece_tree {
+        options.piece_tree = None;
+    }
     options
         .check()
         .map_err(|e| anyhow!("--{}: {}", e.option.flag(), e.problem))?;

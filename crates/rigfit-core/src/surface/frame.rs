@@ -18,24 +18,23 @@ impl SurfaceTracker {
         data.check()?;
         self.cache.clear();
         let last = self.pose.clone();
-        if self.options.extrapolate
-            && let Some(previous) = &self.previous
-        {
-            // Constant velocity: apply the last frame's motion of each patch once more, in
-            // proportion to how well the patch was seen (a patch no point explained keeps
-            // still rather than flying on at the speed it had when it was lost).
-            for k in 0..self.model.patch_count() {
-                let support = self.support.get(k).copied().unwrap_or(1.0);
-                let continued = continued_rotation(&previous.rotation[k], &last.rotation[k]);
-                self.pose.rotation[k] = if support >= 1.0 {
-                    continued
-                } else {
-                    rotation_toward(&last.rotation[k], &continued, support)
-                };
-                self.pose.centre[k] =
-                    last.centre[k] + (last.centre[k] - previous.centre[k]) * support;
+        let piece_steps = self
+            .piece_tree
+            .as_mut()
+            .and_then(|tree| tree.track(&data.points));
+        match &piece_steps {
+            // Each patch moved as its piece moved in the pieces' tree.
+            Some(steps) => {
+                super::piece_tree::PieceTree::move_patches(&self.model, &mut self.pose, steps)
             }
+            None if self.options.extrapolate => self.continue_motion(&last),
+            None => {}
         }
+        // After the pieces' tree took up most of the motion, a narrower first kernel.
+        let first_sigma = match (&piece_steps, &self.options.piece_tree) {
+            (Some(_), Some(tree)) => tree.initial_sigma,
+            _ => self.options.initial_sigma,
+        };
         let diagonal = self.model.diagonal;
         let min_sigma = self.options.min_sigma * diagonal;
         let merged = (self.options.merge_cell > 0.0).then(|| {
@@ -72,9 +71,7 @@ impl SurfaceTracker {
         };
         let schedule = Schedule {
             widths: Widths::Estimated {
-                start: (self.options.initial_sigma * diagonal)
-                    .max(fast)
-                    .max(min_sigma),
+                start: (first_sigma * diagonal).max(fast).max(min_sigma),
                 floor: min_sigma,
                 fall: self.options.anneal,
                 preliminary: if thinned { coarse_iterations } else { 0 },
@@ -129,6 +126,9 @@ impl SurfaceTracker {
             self.pose = last;
             return Err(SurfaceError::Diverged);
         }
+        if let Some(tree) = self.piece_tree.as_mut() {
+            tree.sync(&self.model, &self.pose);
+        }
         self.previous = Some(last);
         self.support = support;
         let total = targets.total_weight();
@@ -144,6 +144,27 @@ impl SurfaceTracker {
             iterations: report.iterations,
             sigma: report.sigma,
         })
+    }
+}
+
+impl SurfaceTracker {
+    /// Constant velocity: apply the last frame's motion of each patch once more, in
+    /// proportion to how well the patch was seen (a patch no point explained keeps still
+    /// rather than flying on at the speed it had when it was lost).
+    fn continue_motion(&mut self, last: &super::PatchPose) {
+        let Some(previous) = &self.previous else {
+            return;
+        };
+        for k in 0..self.model.patch_count() {
+            let support = self.support.get(k).copied().unwrap_or(1.0);
+            let continued = continued_rotation(&previous.rotation[k], &last.rotation[k]);
+            self.pose.rotation[k] = if support >= 1.0 {
+                continued
+            } else {
+                rotation_toward(&last.rotation[k], &continued, support)
+            };
+            self.pose.centre[k] = last.centre[k] + (last.centre[k] - previous.centre[k]) * support;
+        }
     }
 }
 

@@ -22,6 +22,7 @@ pub mod estep;
 mod frame;
 pub mod model;
 pub mod patches;
+pub mod piece_tree;
 pub mod solve;
 #[cfg(any(test, feature = "test-meshes"))]
 pub mod test_meshes;
@@ -140,6 +141,42 @@ pub struct SurfaceOptions {
     /// mean square), `sigma` does not fall (a limb on its way to its points is not cut off
     /// from them); 0 lets it fall at the annealing rate.
     pub hold_while_moving: f64,
+    /// Objects made of pieces start each frame from the motion of the pieces' kinematic
+    /// tree, tracked by the articulated tracker ([`piece_tree::PieceTree`]), instead of from
+    /// each patch's motion continued; `None` turns it off (a reference of one piece never
+    /// has it).
+    pub piece_tree: Option<PieceTreeOptions>,
+}
+
+/// The coarse articulated stage of objects made of pieces ([`piece_tree::PieceTree`]).
+/// Chosen on the tuning half of the many-part corpus (BENCHMARKS.md, issue 22, session 19).
+#[derive(Clone, Debug)]
+pub struct PieceTreeOptions {
+    /// The articulated tracker's options (its lengths are fractions of the object's height).
+    pub track: crate::track::TrackOptions,
+    /// Points sampled on the pieces' surface for the articulated tracker.
+    pub model_points: usize,
+    /// The articulated tracker matches one point of a frame in this many.
+    pub data_stride: usize,
+    /// The patches' first `sigma` (fraction of the diagonal) in a frame that starts from the
+    /// tree's motion: most of the motion is taken up, so the kernel starts narrower than
+    /// `SurfaceOptions::initial_sigma`.
+    pub initial_sigma: f64,
+}
+
+impl Default for PieceTreeOptions {
+    fn default() -> Self {
+        Self {
+            track: crate::track::TrackOptions {
+                anneal_steps: 6,
+                final_em_iterations: 3,
+                ..Default::default()
+            },
+            model_points: 1500,
+            data_stride: 4,
+            initial_sigma: 0.015,
+        }
+    }
 }
 
 impl SurfaceOptions {
@@ -178,6 +215,7 @@ impl SurfaceOptions {
             fast_start: 0.0,
             coarse_stiffness: 1.0,
             hold_while_moving: 0.0,
+            piece_tree: None,
             ..Self::default()
         };
         options.patches.link_parts = false;
@@ -215,6 +253,8 @@ impl Default for SurfaceOptions {
             // 0.08 helps both halves of the surface corpus on average and costs 20-45% more
             // time a frame (BENCHMARKS.md).
             hold_while_moving: 0.0,
+            // Both halves of the many-part corpus gain (BENCHMARKS.md, issue 22, session 19).
+            piece_tree: Some(PieceTreeOptions::default()),
         }
     }
 }
@@ -335,6 +375,9 @@ pub struct SurfaceTracker {
     /// The last frame's buffers of predictions, normals and positions, which the next
     /// writes over (fresh buffers of this size cost page faults).
     scratch: frame::FrameScratch,
+    /// The pieces' kinematic tree, with `SurfaceOptions::piece_tree` on a reference of
+    /// several pieces.
+    piece_tree: Option<piece_tree::PieceTree>,
 }
 
 impl SurfaceTracker {
@@ -342,7 +385,12 @@ impl SurfaceTracker {
     pub fn new(reference: &TriMesh, options: &SurfaceOptions) -> Result<Self, SurfaceError> {
         let model = PatchModel::new(reference, &options.patches)?;
         let system = PatchSystem::new(&model)?;
+        let piece_tree = options
+            .piece_tree
+            .as_ref()
+            .and_then(|tree| piece_tree::PieceTree::new(&model, tree));
         Ok(Self {
+            piece_tree,
             pose: model.rest_pose(),
             model,
             system,

@@ -98,7 +98,7 @@ pub struct FrameFit {
 }
 
 /// Tracks one model through a sequence of point clouds.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Tracker {
     model: ArticulatedModel,
     options: TrackOptions,

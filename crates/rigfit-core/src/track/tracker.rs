@@ -64,6 +64,13 @@ impl Tracker {
         })
     }
 
+    /// Sets the pose the next frame starts from, and the one before it (whose motion to it
+    /// the next frame continues; `None` forgets the motion).
+    pub fn resume_from(&mut self, previous: Option<&Pose>, pose: &Pose) {
+        self.pose.clone_from(pose);
+        self.previous = previous.cloned();
+    }
+
     /// Sets the pose the next frame starts from (forgetting the motion so far).
     pub fn set_pose(&mut self, pose: &Pose) {
         self.pose.clone_from(pose);

@@ -273,6 +273,7 @@ class SurfaceTracker:
         merge: float = 0.0,
         coarse: int = 4,
         fast_motion: bool = False,
+        piece_tree: bool = True,
     ) -> None:
         """The reference: ``vertices`` (n, 3), ``faces`` (k, 3) vertex indices (required:
         they give the patches). The options, defaults and bounds are ``rigfit surface``'s:
@@ -282,7 +283,9 @@ class SurfaceTracker:
         frame's points by cubes of this many point spacings; 0: off), ``coarse`` (the first
         iterations, two or four with ``fast_motion``, use one point in this many, 1 to
         1024), ``fast_motion`` (``--fast-motion``: for limbs that move a tenth of the object
-        or more between frames, at about twice the time on such frames)."""
+        or more between frames, at about twice the time on such frames), ``piece_tree``
+        (``False`` is ``--no-piece-tree``: a many-part object's patches start from their
+        own motion continued, not from the pieces' kinematic tree)."""
     def track(
         self,
         points: ArrayLike,
