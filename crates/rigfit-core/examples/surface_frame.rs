@@ -9,7 +9,7 @@
 use std::time::Instant;
 
 use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker};
-use rigfit_testkit::surface_cases::{bend, warmed_torus_tracker};
+use rigfit_testkit::surface_cases::{bend, mean_distance, warmed_torus_tracker};
 use rigfit_testkit::surface_corpus::{self, PartsOptions};
 
 fn main() {
@@ -28,14 +28,7 @@ fn main() {
         let mut t = tracker.clone();
         let start = Instant::now();
         let fit = t.track(&frames[2]).expect("frame 2");
-        let error = fit
-            .positions
-            .iter()
-            .zip(&truth)
-            .map(|(p, q)| (p - q).norm())
-            .sum::<f64>()
-            / truth.len() as f64
-            / diagonal;
+        let error = mean_distance(&fit.positions, &truth) / diagonal;
         println!(
             "{:.1} ms, {} iterations, mean error {:.4}% of the diagonal",
             start.elapsed().as_secs_f64() * 1e3,

@@ -14,7 +14,7 @@ use rigfit_core::skeleton::Pose;
 use rigfit_core::surface::{Observations, SurfaceOptions, SurfaceTracker};
 
 /// The test meshes of core (its own unit tests use them): a torus, bent, scanned.
-pub use rigfit_core::surface::test_meshes::{bend, sample_surface, scan, torus};
+pub use rigfit_core::surface::test_meshes::{bend, mean_distance, sample_surface, scan, torus};
 
 /// How to draw a sequence. Lengths are fractions of the reference's bounding-box diagonal.
 #[derive(Clone, Debug)]

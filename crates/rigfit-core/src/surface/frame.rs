@@ -145,9 +145,7 @@ impl SurfaceTracker {
             sigma: report.sigma,
         })
     }
-}
 
-impl SurfaceTracker {
     /// Constant velocity: apply the last frame's motion of each patch once more, in
     /// proportion to how well the patch was seen (a patch no point explained keeps still
     /// rather than flying on at the speed it had when it was lost).

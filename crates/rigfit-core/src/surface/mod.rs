@@ -419,13 +419,9 @@ impl SurfaceTracker {
 
 #[cfg(test)]
 mod tests {
-    use super::test_meshes::{bend, scan, torus};
+    use super::test_meshes::{bend, mean_distance, scan, torus};
     use super::*;
     use rand::SeedableRng;
-
-    fn mean_error(a: &[Point3], b: &[Point3]) -> f64 {
-        a.iter().zip(b).map(|(p, q)| (p - q).norm()).sum::<f64>() / a.len() as f64
-    }
 
     #[test]
     fn tracks_a_bending_torus_through_noise_and_clutter() {
@@ -451,7 +447,7 @@ mod tests {
             let fit = tracker
                 .track(&Observations::from_mesh(&cloud).expect("frame"))
                 .expect("track");
-            let error = mean_error(&fit.positions, &truth) / diagonal;
+            let error = mean_distance(&fit.positions, &truth) / diagonal;
             assert!(error < 0.0125, "frame {f}: {error}");
             errors.push(error);
             // About 5100 surface points; most of the 900 clutter points are outliers.

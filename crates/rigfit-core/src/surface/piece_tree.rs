@@ -83,21 +83,20 @@ impl PieceTree {
             .collect();
         let mut size = vec![0usize; pieces];
         let mut centroid = vec![Vector3::zeros(); pieces];
+        let mut low = vec![Vector3::repeat(f64::INFINITY); pieces];
+        let mut high = vec![Vector3::repeat(f64::NEG_INFINITY); pieces];
         for (v, &p) in vertex_piece.iter().enumerate() {
+            let at = &model.rest[v].coords;
             size[p] += 1;
-            centroid[p] += model.rest[v].coords;
+            centroid[p] += at;
+            low[p] = low[p].inf(at);
+            high[p] = high[p].sup(at);
         }
         for (c, &n) in centroid.iter_mut().zip(&size) {
             *c /= n.max(1) as f64;
         }
         // A piece across nearly the whole object is a skin, which bends: the tree would
         // move it rigidly.
-        let mut low = vec![Vector3::repeat(f64::INFINITY); pieces];
-        let mut high = vec![Vector3::repeat(f64::NEG_INFINITY); pieces];
-        for (v, &p) in vertex_piece.iter().enumerate() {
-            low[p] = low[p].inf(&model.rest[v].coords);
-            high[p] = high[p].sup(&model.rest[v].coords);
-        }
         if (0..pieces).any(|p| (high[p] - low[p]).norm() > SKIN_SPAN * model.diagonal) {
             return None;
         }
@@ -346,7 +345,7 @@ fn nearest_rotation(m: &Matrix3) -> Matrix3 {
 mod tests {
     use super::*;
     use crate::geometry::TriMesh;
-    use crate::surface::test_meshes::scan;
+    use crate::surface::test_meshes::{mean_distance, scan};
     use crate::surface::{Observations, SurfaceOptions, SurfaceTracker};
     use rand::SeedableRng;
 
@@ -476,14 +475,7 @@ mod tests {
                     let fit = tracker
                         .track(&Observations::from_mesh(&cloud).expect("frame"))
                         .expect("track");
-                    let error = fit
-                        .positions
-                        .iter()
-                        .zip(&truth)
-                        .map(|(p, q)| (p - q).norm())
-                        .sum::<f64>()
-                        / truth.len() as f64;
-                    error / diagonal
+                    mean_distance(&fit.positions, &truth) / diagonal
                 })
                 .collect::<Vec<f64>>()
         };

@@ -9,6 +9,12 @@ use rand_distr::{Distribution, Normal};
 use crate::geometry::{Aabb, TriMesh};
 use crate::math::{Point3, Vector3};
 
+/// The mean distance between corresponding points of `a` and `b` (a fit's vertices and the
+/// truth's).
+pub fn mean_distance(a: &[Point3], b: &[Point3]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| (p - q).norm()).sum::<f64>() / a.len() as f64
+}
+
 /// Uniform samples of a triangle mesh's surface, with the faces' normals.
 pub fn sample_surface(
     vertices: &[Point3],
