@@ -38,11 +38,15 @@ const PROXIMAL_SAMPLES: usize = 5;
 /// ones may bend (measured on the corpus's tuning half: 5 against 3 and a share of
 /// 1 / joints for every chain).
 const RIGID_CHAIN_BONES: usize = 5;
-/// The candidates each stroke keeps (best first).
-const KEPT_CANDIDATES: usize = 32;
-/// Search nodes per group of strokes competing for bones, before the best assignment
-/// found so far is kept.
-const SEARCH_BUDGET: usize = 5_000;
+/// The candidates each stroke keeps (best first). Measured on the corpus's tuning half
+/// with the search below: 16 against 12 (two cases fewer) and 32 (as many, a larger search).
+const KEPT_CANDIDATES: usize = 16;
+/// Search nodes per group of strokes competing for bones (picks ruled out by the bound
+/// count too), before the best assignment found so far is kept. Far from the pose, most
+/// searches end at the budget: many chains fit a stroke almost alike. Measured on the
+/// tuning half: with the tighter bound and 16 candidates, 1,000 and 500 alike; before
+/// them, 500 to 5,000 within 10 of 2,160 cases either way (BENCHMARKS.md, session 20).
+const SEARCH_BUDGET: usize = 1_000;
 
 /// One way for a stroke to be explained: its cost, the chain's index, and whether the
 /// stroke runs tip first.
@@ -492,6 +496,11 @@ fn group_cost(candidates: &Candidates, strokes: &[usize], picks: &[Option<usize>
         .sum()
 }
 
+/// The bits of a stroke's `count` candidates.
+fn all_bits(count: usize) -> u64 {
+    u64::MAX.checked_shr(64 - count as u32).unwrap_or(0)
+}
+
 // A stroke's candidates are bits of a `u64` in the search.
 const _: () = assert!(KEPT_CANDIDATES <= 64);
 
@@ -530,8 +539,7 @@ impl GroupSearch<'_> {
         let depths = self.strokes.len();
         let list = &self.candidates[s];
         // The candidates no chain picked above (or fixed) rules out, in order.
-        let all = u64::MAX.checked_shr(64 - list.len() as u32).unwrap_or(0);
-        let mut open = !self.blocked[depth * depths + depth] & all;
+        let mut open = !self.blocked[depth * depths + depth] & all_bits(list.len());
         // Costs come sorted (NaN last): the last that is a number.
         let last_number = list.iter().rposition(|c| !c.cost.is_nan());
         while open != 0 {
@@ -550,6 +558,14 @@ impl GroupSearch<'_> {
             }
             let chains = self.chains;
             self.block_below(depth, &chains[c.chain]);
+            // The bound again, without the candidates this pick rules out below.
+            if cost + c.cost + self.least_open_below(depth) >= self.best_cost - 1e-12 {
+                self.nodes += 1;
+                if self.nodes > SEARCH_BUDGET {
+                    return;
+                }
+                continue;
+            }
             self.picks[depth] = Some(k);
             self.descend(depth + 1, cost + c.cost);
         }
@@ -558,6 +574,31 @@ impl GroupSearch<'_> {
             self.block_below(depth, &[]);
             self.descend(depth + 1, cost + STRAY_COST);
         }
+    }
+
+    /// The least the strokes below `depth` can cost once the candidates blocked there
+    /// (by the picks down to `depth`) are left out: each stroke's cheapest open candidate
+    /// or a stray, conflicts among them ignored. At least `least_after[depth + 1]`.
+    fn least_open_below(&self, depth: usize) -> f64 {
+        let depths = self.strokes.len();
+        let row = &self.blocked[(depth + 1) * depths..(depth + 2) * depths];
+        (depth + 1..depths)
+            .map(|d| {
+                let list = &self.candidates[self.strokes[d]];
+                match !row[d] & all_bits(list.len()) {
+                    0 => STRAY_COST,
+                    open => {
+                        let cost = list[open.trailing_zeros() as usize].cost;
+                        // A cost that is no number bounds nothing.
+                        if cost.is_nan() {
+                            0.0
+                        } else {
+                            cost.min(STRAY_COST)
+                        }
+                    }
+                }
+            })
+            .sum()
     }
 
     /// The candidates blocked below `depth` once `chain` is picked there: those blocked at
