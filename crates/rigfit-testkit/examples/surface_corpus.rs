@@ -11,7 +11,9 @@
 //! method; `FAST_MOTION=1` `SurfaceOptions::fast_motion`; `NO_LINKS=1` without contact links; `NO_CARRY=1` without carrying unseen
 //! patches; `SIGMA`, `ANNEAL`, `ITERATIONS`, `MERGE`, `TOLERANCE`, `STRIDE`, `CANDIDATES`,
 //! `CUTOFF`, `HOLD`, `COARSE_ITERATIONS`, `FAST`, `COARSE_STIFFNESS`, `ANCHOR`, `STIFFNESS`,
-//! `CONTACT_WIDTH`, `PART_GAP` set those options; `VERBOSE=1` every frame's mean and worst
+//! `CONTACT_WIDTH`, `PART_GAP` set those options; `NO_PIECE_TREE=1` without the pieces'
+//! tree, `TREE_POINTS`, `TREE_STRIDE`, `TREE_STEPS`, `TREE_FINAL`, `TREE_SIGMA` its model
+//! points, data stride, annealing steps, iterations at the floor and first kernel; `VERBOSE=1` every frame's mean and worst
 //! vertex and the truth's steps, `VERBOSE=2` also each piece's mean in the worst frame;
 //! `PLOT=DIR` writes DIR/surface_parts_frames.png, each object's mean per frame, `_paper`
 //! with `PAPER=1`)
@@ -60,6 +62,13 @@ fn main() {
     env_knobs::set("CONTACT_WIDTH", &mut options.patches.contact_width);
     env_knobs::set("PART_GAP", &mut options.patches.part_gap);
     env_knobs::set("STIFFNESS", &mut options.patches.contact_stiffness);
+    if let Some(tree) = options.piece_tree.as_mut() {
+        env_knobs::set_count("TREE_POINTS", &mut tree.model_points);
+        env_knobs::set_count("TREE_STRIDE", &mut tree.data_stride);
+        env_knobs::set_count("TREE_STEPS", &mut tree.track.anneal_steps);
+        env_knobs::set_count("TREE_FINAL", &mut tree.track.final_em_iterations);
+        env_knobs::set("TREE_SIGMA", &mut tree.initial_sigma);
+    }
     if std::env::var("NO_PIECE_TREE").is_ok() {
         options.piece_tree = None;
     }
