@@ -89,7 +89,16 @@ impl Solver<'_> {
 
     /// The candidates at the current pose, by shape those costing at most a stray.
     fn ranked_now(&self) -> Candidates {
-        self.ranked_among(&self.chains, STRAY_COST)
+        let mut last = self.ranked_at.borrow_mut();
+        if let Some((pose, by_shape, ranked)) = last.as_ref()
+            && *pose == self.fitter.pose
+            && *by_shape == self.by_shape
+        {
+            return ranked.clone();
+        }
+        let ranked = self.ranked_among(&self.chains, STRAY_COST);
+        *last = Some((self.fitter.pose.clone(), self.by_shape, ranked.clone()));
+        ranked
     }
 
     /// Every stroke's candidates among `chains` at the current pose, by shape those costing

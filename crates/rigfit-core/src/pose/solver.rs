@@ -4,7 +4,7 @@
 //! step, the paper's annealing over all bones.
 
 use super::annealing::{anneal, bones_by_weight, energy, schedule, settle};
-use super::assignment::{STRAY_COST, assign, candidates};
+use super::assignment::{Candidates, STRAY_COST, assign, candidates};
 use super::chains::{Assignment, stroke_length, stroke_residuals};
 use super::fitting::{FULL_FIT_STEPS, Fitter};
 use super::local_moves::improve;
@@ -102,6 +102,10 @@ pub(super) struct Solver<'a> {
     pub by_shape: bool,
     /// Each bone's mirror image, when the skeleton names its left and right joints.
     pub bone_mirrors: Option<Vec<Option<usize>>>,
+    /// The candidates of every stroke among all chains (by shape, those costing at most a
+    /// stray) last ranked, with the pose and the matching they were ranked at: the local
+    /// moves rank again at a pose no move changed.
+    pub ranked_at: std::cell::RefCell<Option<(Pose, bool, Candidates)>>,
 }
 
 impl<'a> Solver<'a> {
@@ -120,6 +124,7 @@ impl<'a> Solver<'a> {
             chains,
             trials_left: MAX_LOCAL_SEARCH_TRIALS,
             by_shape: false,
+            ranked_at: Default::default(),
         }
     }
 
@@ -338,11 +343,14 @@ impl<'a> Solver<'a> {
         let strokes = self.setup.strokes.count();
         let stray = self.setup.options.stray_distance;
         let initial = self.fitter.pose.clone();
+        // The candidates at the start pose, ranked when first needed: a stroke set aside
+        // sends the pose back there, where the other strokes' candidates are the same.
+        let mut at_initial: Option<Candidates> = None;
         let (mut excluded, mut assignment) = match seed {
             Some(seed) => (seed.iter().map(Option::is_none).collect(), seed),
             None => {
                 let excluded = vec![false; strokes];
-                let assignment = self.assign_now(&excluded, None);
+                let assignment = self.assign_at_initial(&mut at_initial, &excluded);
                 (excluded, assignment)
             }
         };
@@ -376,7 +384,7 @@ impl<'a> Solver<'a> {
                     refitted = false;
                     excluded[s] = true;
                     self.fitter.pose = initial.clone();
-                    assignment = self.assign_now(&excluded, None);
+                    assignment = self.assign_at_initial(&mut at_initial, &excluded);
                 }
                 None => break,
             }
@@ -407,18 +415,43 @@ impl<'a> Solver<'a> {
     /// The assignment of every stroke not `excluded` from the candidates at the current
     /// pose (`settled`: the one just fitted, kept when greedy agrees).
     fn assign_now(&self, excluded: &[bool], settled: Option<&[Assignment]>) -> Vec<Assignment> {
-        let ranked = candidates(
+        let ranked = self.rank_now(excluded);
+        self.assign_ranked(&ranked, excluded, settled)
+    }
+
+    /// [`Solver::assign_now`] at the chain step's start pose, whose candidates (every
+    /// stroke's) are ranked once into `ranked` (an excluded stroke's are passed over).
+    fn assign_at_initial(
+        &self,
+        ranked: &mut Option<Candidates>,
+        excluded: &[bool],
+    ) -> Vec<Assignment> {
+        let ranked = ranked.get_or_insert_with(|| self.rank_now(&vec![false; excluded.len()]));
+        self.assign_ranked(ranked, excluded, None)
+    }
+
+    /// Every stroke's candidates at the current pose but the `excluded` ones'.
+    fn rank_now(&self, excluded: &[bool]) -> Candidates {
+        candidates(
             &self.setup,
             &self.fitter.pose,
             &self.chains,
             excluded,
             self.by_shape,
             STRAY_COST,
-        );
+        )
+    }
+
+    fn assign_ranked(
+        &self,
+        ranked: &Candidates,
+        excluded: &[bool],
+        settled: Option<&[Assignment]>,
+    ) -> Vec<Assignment> {
         assign(
             &self.setup,
             &self.chains,
-            &ranked,
+            ranked,
             &vec![None; excluded.len()],
             excluded,
             settled,
