@@ -1,7 +1,8 @@
 //! Posing speed: a 55-joint rig (BCN_Epileptic: 54 skin joints and its root node) with 10
 //! strokes of 100 points, the corpus's 75-joint mrfixit with 30 strokes of 100 points on
-//! every chain (three poses of its clip), its largest rig (the 82-joint fruit fly) with 17, and the built-in humanoid
-//! with its 6 limb strokes. The goal is live feedback while a stroke is drawn.
+//! every chain (three poses of its clip), its largest rig (the 82-joint fruit fly) with 17,
+//! and the built-in humanoid with its 6 limb strokes. The goal is live feedback while a
+//! stroke is drawn.
 //!
 //! `cargo bench -p rigfit-core --bench pose`
 

@@ -8,15 +8,16 @@
 //!
 //! `cargo run --release -p rigfit-testkit --example surface_corpus`
 //! (`SEEDS=N` seeds 0..N, default 1; `OBJECTS=id,id` some objects; `PAPER=1` the paper's
-//! method; `FAST_MOTION=1` `SurfaceOptions::fast_motion`; `NO_LINKS=1` without contact links; `NO_CARRY=1` without carrying unseen
-//! patches; `SIGMA`, `ANNEAL`, `ITERATIONS`, `MERGE`, `TOLERANCE`, `STRIDE`, `CANDIDATES`,
-//! `CUTOFF`, `HOLD`, `COARSE_ITERATIONS`, `FAST`, `COARSE_STIFFNESS`, `ANCHOR`, `STIFFNESS`,
-//! `CONTACT_WIDTH`, `PART_GAP` set those options; `NO_PIECE_TREE=1` without the pieces'
-//! tree, `TREE_POINTS`, `TREE_STRIDE`, `TREE_STEPS`, `TREE_FINAL`, `TREE_SIGMA` its model
-//! points, data stride, annealing steps, iterations at the floor and first kernel; `VERBOSE=1` every frame's mean and worst
-//! vertex and the truth's steps, `VERBOSE=2` also each piece's mean in the worst frame;
-//! `PLOT=DIR` writes DIR/surface_parts_frames.png, each object's mean per frame, `_paper`
-//! with `PAPER=1`)
+//! method; `FAST_MOTION=1` `SurfaceOptions::fast_motion`; `NO_LINKS=1` without contact
+//! links; `NO_CARRY=1` without carrying unseen patches; `SIGMA`, `ANNEAL`, `ITERATIONS`,
+//! `MERGE`, `TOLERANCE`, `STRIDE`, `CANDIDATES`, `CUTOFF`, `HOLD`, `COARSE_ITERATIONS`,
+//! `FAST`, `COARSE_STIFFNESS`, `ANCHOR`, `STIFFNESS`, `CONTACT_WIDTH`, `PART_GAP` set those
+//! options; `NO_PIECE_TREE=1` without the pieces' tree, `TREE_POINTS`, `TREE_STRIDE`,
+//! `TREE_STEPS`, `TREE_FINAL`, `TREE_SIGMA` its model points, data stride, annealing steps,
+//! iterations at the floor and first kernel; `VERBOSE=1` every frame's mean and worst vertex
+//! and the truth's steps, `VERBOSE=2` also each piece's mean in the worst frame; `PLOT=DIR`
+//! writes DIR/surface_parts_frames.png, each object's mean per frame, `_paper` with
+//! `PAPER=1`)
 
 #[path = "common/env_knobs.rs"]
 mod env_knobs;

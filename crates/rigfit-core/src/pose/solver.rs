@@ -442,6 +442,7 @@ impl<'a> Solver<'a> {
         )
     }
 
+    /// The assignment of every stroke not `excluded` from the candidates `ranked`.
     fn assign_ranked(
         &self,
         ranked: &Candidates,
