@@ -87,8 +87,9 @@ impl Solver<'_> {
         false
     }
 
-    /// The candidates at the current pose, by shape those costing at most a stray.
-    fn ranked_now(&self) -> Candidates {
+    /// The candidates at the current pose, by shape those costing at most a stray (ranked
+    /// again only when the pose or the matching changed since the last call).
+    pub(super) fn ranked_now(&self) -> Candidates {
         let mut last = self.ranked_at.borrow_mut();
         if let Some((pose, by_shape, ranked)) = last.as_ref()
             && *pose == self.fitter.pose

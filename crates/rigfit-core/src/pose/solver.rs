@@ -103,8 +103,9 @@ pub(super) struct Solver<'a> {
     /// Each bone's mirror image, when the skeleton names its left and right joints.
     pub bone_mirrors: Option<Vec<Option<usize>>>,
     /// The candidates of every stroke among all chains (by shape, those costing at most a
-    /// stray) last ranked, with the pose and the matching they were ranked at: the local
-    /// moves rank again at a pose no move changed.
+    /// stray) last ranked by [`Solver::ranked_now`], with the pose and the matching they
+    /// were ranked at: a chain step whose stray sends the pose back to its start, and the
+    /// local moves at a pose no move changed, do not rank again.
     pub ranked_at: std::cell::RefCell<Option<(Pose, bool, Candidates)>>,
 }
 
@@ -343,14 +344,11 @@ impl<'a> Solver<'a> {
         let strokes = self.setup.strokes.count();
         let stray = self.setup.options.stray_distance;
         let initial = self.fitter.pose.clone();
-        // The candidates at the start pose, ranked when first needed: a stroke set aside
-        // sends the pose back there, where the other strokes' candidates are the same.
-        let mut at_initial: Option<Candidates> = None;
         let (mut excluded, mut assignment) = match seed {
             Some(seed) => (seed.iter().map(Option::is_none).collect(), seed),
             None => {
                 let excluded = vec![false; strokes];
-                let assignment = self.assign_at_initial(&mut at_initial, &excluded);
+                let assignment = self.assign_at_start(&excluded);
                 (excluded, assignment)
             }
         };
@@ -384,7 +382,7 @@ impl<'a> Solver<'a> {
                     refitted = false;
                     excluded[s] = true;
                     self.fitter.pose = initial.clone();
-                    assignment = self.assign_at_initial(&mut at_initial, &excluded);
+                    assignment = self.assign_at_start(&excluded);
                 }
                 None => break,
             }
@@ -415,31 +413,22 @@ impl<'a> Solver<'a> {
     /// The assignment of every stroke not `excluded` from the candidates at the current
     /// pose (`settled`: the one just fitted, kept when greedy agrees).
     fn assign_now(&self, excluded: &[bool], settled: Option<&[Assignment]>) -> Vec<Assignment> {
-        let ranked = self.rank_now(excluded);
-        self.assign_ranked(&ranked, excluded, settled)
-    }
-
-    /// [`Solver::assign_now`] at the chain step's start pose, whose candidates (every
-    /// stroke's) are ranked once into `ranked` (an excluded stroke's are passed over).
-    fn assign_at_initial(
-        &self,
-        ranked: &mut Option<Candidates>,
-        excluded: &[bool],
-    ) -> Vec<Assignment> {
-        let ranked = ranked.get_or_insert_with(|| self.rank_now(&vec![false; excluded.len()]));
-        self.assign_ranked(ranked, excluded, None)
-    }
-
-    /// Every stroke's candidates at the current pose but the `excluded` ones'.
-    fn rank_now(&self, excluded: &[bool]) -> Candidates {
-        candidates(
+        let ranked = candidates(
             &self.setup,
             &self.fitter.pose,
             &self.chains,
             excluded,
             self.by_shape,
             STRAY_COST,
-        )
+        );
+        self.assign_ranked(&ranked, excluded, settled)
+    }
+
+    /// [`Solver::assign_now`] at a chain step's start pose, from every stroke's candidates
+    /// there (an excluded stroke's are passed over): a stroke set aside sends the pose back,
+    /// where [`Solver::ranked_now`] has them already.
+    fn assign_at_start(&self, excluded: &[bool]) -> Vec<Assignment> {
+        self.assign_ranked(&self.ranked_now(), excluded, None)
     }
 
     /// The assignment of every stroke not `excluded` from the candidates `ranked`.
