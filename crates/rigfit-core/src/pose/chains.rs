@@ -3,7 +3,7 @@
 //! same fraction of arclength (a correspondence with no local minima of the kind
 //! nearest-point matching falls into).
 
-use super::assignment::distance_cost;
+use super::candidates::distance_cost;
 use super::setup::Setup;
 use crate::kinematics::ForwardKinematics;
 use crate::math::{Point3, Vector3};

@@ -5,7 +5,8 @@
 //! by one accept step ([`Solver::accept`]): a quick fit, then a full one when it explains
 //! the strokes better.
 
-use super::assignment::{Candidates, STRAY_COST, candidates, complete_greedily};
+use super::assignment::complete_greedily;
+use super::candidates::{Candidates, STRAY_COST, candidates};
 use super::chains::{Assignment, better_direction, stroke_length};
 use super::fitting::FULL_FIT_STEPS;
 use super::row_shift::shift_along_rows;

@@ -15,6 +15,7 @@ mod annealing;
 mod assignment;
 pub mod beautify;
 pub mod bones;
+mod candidates;
 mod chains;
 mod fitting;
 mod local_moves;

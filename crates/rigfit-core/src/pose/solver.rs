@@ -4,7 +4,8 @@
 //! step, the paper's annealing over all bones.
 
 use super::annealing::{anneal, bones_by_weight, energy, schedule, settle};
-use super::assignment::{Candidates, STRAY_COST, assign, candidates};
+use super::assignment::assign;
+use super::candidates::{Candidates, STRAY_COST, candidates};
 use super::chains::{Assignment, stroke_length, stroke_residuals};
 use super::fitting::{FULL_FIT_STEPS, Fitter};
 use super::local_moves::improve;
