@@ -9,6 +9,8 @@
 //! from where it is now still find its stroke; the price of turning keeps a leg raised
 //! upright from taking the spine's stroke when the spine's own fits as well.
 
+use std::collections::BinaryHeap;
+
 use super::chains::SAMPLES;
 use super::setup::Setup;
 use crate::kinematics::ForwardKinematics;
@@ -146,6 +148,15 @@ pub(super) fn candidates(
         }
         let (stroke, stroke_length) = &setup.strokes.by_arclength[s];
         let stroke_length = *stroke_length;
+        // Only the best [`KEPT_CANDIDATES`] are kept: a chain whose cost cannot beat the
+        // worst of the best so far is not measured further. Its kept costs as bits (costs
+        // are never negative, so their bits order as they do), the worst on top.
+        let kept_only = setup.options.global_assignment && setup.strokes.allowed_bones[s].is_none();
+        let mut best_costs: BinaryHeap<u64> = BinaryHeap::with_capacity(KEPT_CANDIDATES + 1);
+        let worst_kept = |best: &BinaryHeap<u64>| match best.peek() {
+            Some(&bits) if kept_only && best.len() == KEPT_CANDIDATES => f64::from_bits(bits),
+            _ => f64::INFINITY,
+        };
         for (c, chain) in chains.iter().enumerate() {
             if !setup.stroke_may_cover(s, chain) {
                 continue;
@@ -156,6 +167,9 @@ pub(super) fn candidates(
                 continue;
             }
             let length_cost = LENGTH_WEIGHT * mismatch.min(MAX_LENGTH_MISMATCH).powi(2);
+            if length_cost >= worst_kept(&best_costs) {
+                continue;
+            }
             // Where the chain attaches: its first sample, known before it is sampled.
             let pivot = fk.position(model.bones[chain[0]].joint);
             for reversed in [false, true] {
@@ -178,7 +192,7 @@ pub(super) fn candidates(
                     // The shape and distance terms are never negative: a chain whose
                     // attachment alone costs more than the ceiling is dropped unmeasured.
                     let attach = ATTACH_WEIGHT * attach_cost(stroke, samples, reversed, h);
-                    if !pinned && attach + length_cost > ceiling {
+                    if !pinned && attach + length_cost > ceiling.min(worst_kept(&best_costs)) {
                         continue;
                     }
                     let slot = &mut stroke_from_pivot[pivot_slot[c]][reversed as usize];
@@ -201,6 +215,10 @@ pub(super) fn candidates(
                         chain: c,
                         reversed,
                     });
+                    best_costs.push(cost.to_bits());
+                    if best_costs.len() > KEPT_CANDIDATES {
+                        best_costs.pop();
+                    }
                 }
             }
         }
