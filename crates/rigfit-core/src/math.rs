@@ -147,6 +147,28 @@ pub fn rotation_quat(m: &Matrix3) -> Quat {
     Quat::from_rotation_matrix(&nalgebra::Rotation3::from_matrix_unchecked(*m))
 }
 
+/// The rotation nearest `m` (the orthogonal factor of its polar decomposition, by SVD), the
+/// identity when `m` is degenerate.
+pub fn nearest_rotation(m: &Matrix3) -> Matrix3 {
+    let svd = m.svd(true, true);
+    match (svd.u, svd.v_t) {
+        (Some(u), Some(v_t)) => {
+            let mut r = u * v_t;
+            if r.determinant() < 0.0 {
+                let mut u = u;
+                u.column_mut(2).neg_mut();
+                r = u * v_t;
+            }
+            if r.iter().all(|x| x.is_finite()) {
+                r
+            } else {
+                Matrix3::identity()
+            }
+        }
+        _ => Matrix3::identity(),
+    }
+}
+
 /// The rotation a fraction `t` of the turn from `from` to `to`: `(to from^T)^t from`, by
 /// quaternion slerp (the whole turn when the two are opposite).
 pub fn rotation_toward(from: &Matrix3, to: &Matrix3, t: f64) -> Matrix3 {

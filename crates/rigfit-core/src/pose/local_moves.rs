@@ -1,7 +1,8 @@
 //! Local moves on a fitted hypothesis: swap the chains of mirror-image limbs, trade a stray
 //! for an assigned stroke, give a stroke another close chain (the strokes that lose bones
-//! pick again), move a stroke to a free chain of about its length, and shift a run of strokes
-//! along a row of alike limbs ([`shift_along_rows`]). Every move is judged
+//! pick again), move a stroke to a free chain of about its length, shift a run of strokes
+//! along a row of alike limbs ([`shift_along_rows`]), and turn the joint a row fans out of
+//! with the row's strokes placed anew ([`turn_row_joints`]). Every move is judged
 //! by one accept step ([`Solver::accept`]): a quick fit, then a full one when it explains
 //! the strokes better.
 
@@ -9,7 +10,7 @@ use super::assignment::complete_greedily;
 use super::candidates::{Candidates, STRAY_COST, candidates};
 use super::chains::{Assignment, better_direction, stroke_length};
 use super::fitting::FULL_FIT_STEPS;
-use super::row_shift::shift_along_rows;
+use super::row_shift::{shift_along_rows, turn_row_joints};
 use super::solver::{ChainFit, Solver};
 
 /// Levenberg-Marquardt steps used to judge a trial assignment.
@@ -43,6 +44,7 @@ pub(super) fn improve(solver: &mut Solver, mut fit: ChainFit) -> ChainFit {
         improved |= take_close_chains(solver, &mut fit);
         improved |= move_to_free_chains(solver, &mut fit);
         improved |= shift_along_rows(solver, &mut fit);
+        improved |= turn_row_joints(solver, &mut fit);
         if !improved {
             break;
         }

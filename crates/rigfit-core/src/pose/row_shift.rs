@@ -1,14 +1,19 @@
-//! A local move for rows of alike limbs fanning out of one joint (fingers from a palm, toes
-//! from a foot): when one limb of the row is undrawn, the strokes of its neighbours may each
-//! have been taken by the next limb over (fingers curled into a fist, every stroke one finger
-//! off). No single move undoes that; shifting the whole run of strokes one limb towards the
-//! free one does.
+//! Local moves for rows of alike limbs fanning out of one joint (fingers from a palm, toes
+//! from a foot, a quadruped's legs):
+//! - when one limb of the row is undrawn, the strokes of its neighbours may each have been
+//!   taken by the next limb over (fingers curled into a fist, every stroke one finger off).
+//!   No single move undoes that; shifting the whole run of strokes one limb towards the free
+//!   one does ([`shift_along_rows`]);
+//! - when the joint itself is turned wrong (a palm face down), the wrong limbs are the
+//!   nearest to the strokes and any placement of them fits as well as the next. The limbs'
+//!   bases (the knuckles), spread across the joint, tell the turn and the placement
+//!   together ([`turn_row_joints`]).
 
-use super::chains::{Assignment, better_direction};
+use super::chains::{Assignment, SAMPLES, better_direction};
 use super::fitting::FULL_FIT_STEPS;
 use super::solver::{ChainFit, Solver};
 use crate::kinematics::ForwardKinematics;
-use crate::math::{Matrix3, Vector3};
+use crate::math::{Matrix3, Point3, Vector3, nearest_rotation, rotation_quat};
 
 /// The fewest limbs fanning out of one joint that make a row.
 const ROW_LIMBS: usize = 3;
@@ -57,6 +62,226 @@ pub(super) fn shift_along_rows(solver: &mut Solver, fit: &mut ChainFit) -> bool 
         }
     }
     improved
+}
+
+/// The most strokes on one row whose every placement on the row's limbs is searched.
+const MAX_PERMUTED_STROKES: usize = 6;
+
+/// A turn of a row's joint smaller than this (radians) with the strokes where they are is
+/// no new trial.
+const MIN_ROW_TURN: f64 = 0.35;
+
+/// Turns the joint a row fans out of (a palm) and places the row's strokes anew on its limbs
+/// at once. For every placement of the strokes on the limbs, the turn about the joint that
+/// best brings each limb's base (where its first bone ends, the knuckle) onto its stroke at
+/// that arclength (Kabsch); the placement whose bases fit best is judged after a full fit,
+/// from that turn with the row's limbs at their start. A palm turned wrong makes the wrong
+/// fingers the nearest to the strokes; the knuckles, spread across the palm, tell the turn
+/// and the placement together.
+pub(super) fn turn_row_joints(solver: &mut Solver, fit: &mut ChainFit) -> bool {
+    let mut improved = false;
+    for row in rows(solver) {
+        let Some(limbs) = unbranched_limbs(solver, &row) else {
+            continue;
+        };
+        let Some(on_row) = strokes_on_row(&fit.assignment, &limbs) else {
+            continue;
+        };
+        if on_row.len() < 2
+            || on_row.len() > MAX_PERMUTED_STROKES
+            || on_row.iter().any(|p| p.depth != 0)
+        {
+            continue;
+        }
+        let bones = &solver.setup.model.bones;
+        let fan = bones[row[0]].joint;
+        if !solver.setup.movable[fan] {
+            continue;
+        }
+        let fk = ForwardKinematics::new(solver.setup.skeleton, &solver.fitter.pose);
+        let pivot = fk.position(fan);
+        // In the joint's own frame: its rotation turns by a rotation applied on the right.
+        let to_frame = *fk.frame_linear_inv(fan);
+        let bases: Vec<Vector3> = limbs
+            .iter()
+            .map(|l| to_frame * (fk.position(bones[l[0]].child) - pivot))
+            .collect();
+        let strokes = &solver.setup.strokes.by_arclength;
+        // Stroke `i` of the row from its root end to where it has run limb `l`'s base.
+        let reach: Vec<Vec<Vector3>> = on_row
+            .iter()
+            .map(|p| {
+                let (samples, length) = &strokes[p.stroke];
+                limbs
+                    .iter()
+                    .map(|l| {
+                        let run = bones[l[0]].length / length.max(f64::MIN_POSITIVE);
+                        let (root, at) = if p.reversed {
+                            (samples[SAMPLES - 1], along(samples, 1.0 - run))
+                        } else {
+                            (samples[0], along(samples, run))
+                        };
+                        to_frame * (at - root)
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut best: Option<(f64, Vec<usize>, Matrix3)> = None;
+        for placement in injections(on_row.len(), limbs.len()) {
+            let pairs = || {
+                placement
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &l)| (bases[l], reach[i][l]))
+            };
+            let correlation: Matrix3 = pairs().map(|(b, r)| r * b.transpose()).sum();
+            let turn = nearest_rotation(&correlation);
+            let misfit: f64 = pairs().map(|(b, r)| (turn * b - r).norm_squared()).sum();
+            if best.as_ref().is_none_or(|(m, _, _)| misfit < *m) {
+                best = Some((misfit, placement, turn));
+            }
+        }
+        let Some((_, placement, turn)) = best else {
+            continue;
+        };
+        let turn = rotation_quat(&turn);
+        let unchanged = placement.iter().zip(&on_row).all(|(&l, p)| l == p.limb);
+        if unchanged && turn.angle() < MIN_ROW_TURN {
+            continue;
+        }
+        let mut trial = fit.assignment.clone();
+        for (&l, p) in placement.iter().zip(&on_row) {
+            trial[p.stroke] = Some((placed_chain(&limbs[l], p), p.reversed));
+        }
+        let saved = solver.fitter.pose.clone();
+        let pose = &mut solver.fitter.pose;
+        pose.local[fan].rotation *= turn;
+        for &b in limbs.iter().flat_map(|l| &l[1..]) {
+            let j = bones[b].joint;
+            pose.local[j].rotation = solver.setup.start.local[j].rotation;
+        }
+        if solver.accept_judged_after(trial, fit, FULL_FIT_STEPS) {
+            improved = true;
+        } else {
+            solver.fitter.pose = saved;
+        }
+    }
+    improved
+}
+
+/// The point a fraction `u` of the way along arclength samples (evenly spaced).
+fn along(samples: &[Point3; SAMPLES], u: f64) -> Point3 {
+    let x = u.clamp(0.0, 1.0) * (SAMPLES - 1) as f64;
+    let i = (x.floor() as usize).min(SAMPLES - 2);
+    samples[i] + (samples[i + 1] - samples[i]) * (x - i as f64)
+}
+
+/// Every placement of `items` things on `slots` slots, no two on one slot.
+fn injections(items: usize, slots: usize) -> Vec<Vec<usize>> {
+    let mut all = Vec::new();
+    let mut picked = Vec::with_capacity(items);
+    fn extend(items: usize, used: &mut [bool], picked: &mut Vec<usize>, all: &mut Vec<Vec<usize>>) {
+        if picked.len() == items {
+            all.push(picked.clone());
+            return;
+        }
+        for slot in 0..used.len() {
+            if !used[slot] {
+                used[slot] = true;
+                picked.push(slot);
+                extend(items, used, picked, all);
+                picked.pop();
+                used[slot] = false;
+            }
+        }
+    }
+    extend(items, &mut vec![false; slots], &mut picked, &mut all);
+    all
+}
+
+/// A stroke on a row: which limb, from which bone down the limb and over how many.
+struct RowStroke {
+    stroke: usize,
+    limb: usize,
+    depth: usize,
+    bones: usize,
+    reversed: bool,
+}
+
+/// The row's alike limbs as their bones from the top down, when every limb of the row is
+/// one unbranched run to its end and at least [`ROW_LIMBS`] are alike: within one bone of
+/// the row's median count and half to twice its median length (a neck beside two arms is
+/// no row; the arms alone are mirror images, another move's).
+fn unbranched_limbs(solver: &Solver, row: &[usize]) -> Option<Vec<Vec<usize>>> {
+    let model = &solver.setup.model;
+    let next = &model.next_bones;
+    let limbs: Vec<Vec<usize>> = row
+        .iter()
+        .map(|&top| {
+            let mut limb = vec![top];
+            loop {
+                match next[*limb.last().expect("a limb has its top")][..] {
+                    [] => return Some(limb),
+                    [only] if limb.len() < next.len() => limb.push(only),
+                    _ => return None,
+                }
+            }
+        })
+        .collect::<Option<_>>()?;
+    let length = |limb: &Vec<usize>| limb.iter().map(|&b| model.bones[b].length).sum::<f64>();
+    let median = |mut values: Vec<f64>| {
+        values.sort_by(f64::total_cmp);
+        values[values.len() / 2]
+    };
+    let bones = median(limbs.iter().map(|l| l.len() as f64).collect());
+    let long = median(limbs.iter().map(length).collect());
+    let alike: Vec<Vec<usize>> = limbs
+        .into_iter()
+        .filter(|l| (l.len() as f64 - bones).abs() <= 1.0)
+        .filter(|l| (0.5 * long..=2.0 * long).contains(&length(l)))
+        .collect();
+    (alike.len() >= ROW_LIMBS).then_some(alike)
+}
+
+/// The strokes whose chains lie along a limb of the row, at most one a limb; `None` when a
+/// stroke covers part of the row otherwise (across limbs, or with more above the row).
+fn strokes_on_row(assignment: &[Assignment], limbs: &[Vec<usize>]) -> Option<Vec<RowStroke>> {
+    let mut on_row = Vec::new();
+    let mut taken = vec![false; limbs.len()];
+    for (s, a) in assignment.iter().enumerate() {
+        let Some((chain, reversed)) = a else {
+            continue;
+        };
+        let on_limb = limbs.iter().enumerate().find_map(|(l, limb)| {
+            let depth = limb.iter().position(|&b| b == chain[0])?;
+            Some((l, depth))
+        });
+        let Some((limb, depth)) = on_limb else {
+            if chain.iter().any(|b| limbs.iter().any(|l| l.contains(b))) {
+                return None;
+            }
+            continue;
+        };
+        if limbs[limb].get(depth..depth + chain.len()) != Some(&chain[..]) || taken[limb] {
+            return None;
+        }
+        taken[limb] = true;
+        on_row.push(RowStroke {
+            stroke: s,
+            limb,
+            depth,
+            bones: chain.len(),
+            reversed: *reversed,
+        });
+    }
+    Some(on_row)
+}
+
+/// The chain `stroke` takes on `limb`: from its depth down as many bones (fewer when the
+/// limb is shorter); empty when the limb does not reach that deep.
+fn placed_chain(limb: &[usize], stroke: &RowStroke) -> Vec<usize> {
+    let end = (stroke.depth + stroke.bones).min(limb.len());
+    limb.get(stroke.depth..end).unwrap_or(&[]).to_vec()
 }
 
 /// Judges `trial` (by [`Solver::accept_judged_after`] a full fit) with the limbs whose
@@ -201,6 +426,31 @@ mod tests {
         let forwards = vec![2, 4, 0, 3, 1];
         let backwards: Vec<usize> = forwards.iter().rev().copied().collect();
         assert!(order == forwards || order == backwards, "{order:?}");
+    }
+
+    #[test]
+    fn every_placement_of_strokes_on_limbs_is_listed_once() {
+        let all = injections(3, 5);
+        assert_eq!(all.len(), 5 * 4 * 3);
+        let mut unique = all.clone();
+        unique.sort();
+        unique.dedup();
+        assert_eq!(unique.len(), all.len());
+        assert!(
+            all.iter()
+                .all(|p| p[0] != p[1] && p[1] != p[2] && p[0] != p[2])
+        );
+        assert_eq!(injections(0, 4), vec![Vec::<usize>::new()]);
+    }
+
+    #[test]
+    fn a_point_along_samples_is_interpolated_by_arclength() {
+        let samples: [Point3; SAMPLES] = std::array::from_fn(|i| Point3::new(i as f64, 0.0, 0.0));
+        let end = (SAMPLES - 1) as f64;
+        assert_eq!(along(&samples, 0.0), Point3::origin());
+        assert_eq!(along(&samples, 1.0), Point3::new(end, 0.0, 0.0));
+        assert!((along(&samples, 0.5).x - end / 2.0).abs() < 1e-12);
+        assert_eq!(along(&samples, 2.0), Point3::new(end, 0.0, 0.0));
     }
 
     #[test]

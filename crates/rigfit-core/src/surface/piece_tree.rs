@@ -11,7 +11,9 @@ use std::collections::VecDeque;
 
 use super::PieceTreeOptions;
 use super::model::{PatchModel, PatchPose};
-use crate::math::{Matrix3, Matrix4, Point3, Trs, Vector3, linear_part, translation_part};
+use crate::math::{
+    Matrix3, Matrix4, Point3, Trs, Vector3, linear_part, nearest_rotation, translation_part,
+};
 use crate::rig::Rig;
 use crate::skeleton::{Joint, JointDof, Skeleton};
 use crate::skinning::SkinnedMesh;
@@ -316,28 +318,6 @@ impl TreeBuilder {
         joint.dof = dof;
         self.joints.push(joint);
         self.world_at.push(at);
-    }
-}
-
-/// The rotation nearest `m` (the orthogonal factor of its polar decomposition, by SVD), the
-/// identity when `m` is degenerate.
-fn nearest_rotation(m: &Matrix3) -> Matrix3 {
-    let svd = m.svd(true, true);
-    match (svd.u, svd.v_t) {
-        (Some(u), Some(v_t)) => {
-            let mut r = u * v_t;
-            if r.determinant() < 0.0 {
-                let mut u = u;
-                u.column_mut(2).neg_mut();
-                r = u * v_t;
-            }
-            if r.iter().all(|x| x.is_finite()) {
-                r
-            } else {
-                Matrix3::identity()
-            }
-        }
-        _ => Matrix3::identity(),
     }
 }
 
