@@ -64,8 +64,10 @@ pub(super) fn shift_along_rows(solver: &mut Solver, fit: &mut ChainFit) -> bool 
     improved
 }
 
-/// The most strokes on one row whose every placement on the row's limbs is searched.
-const MAX_PERMUTED_STROKES: usize = 6;
+/// The most placements of a row's strokes on its limbs searched: six strokes on seven
+/// limbs (on the tuning half, a cap of 720 lost two of mrfixit's cases). A fan of many
+/// short bones (a face's) is left alone.
+const MAX_PLACEMENTS: usize = 5040;
 
 /// A turn of a row's joint smaller than this (radians) with the strokes where they are is
 /// no new trial.
@@ -87,8 +89,10 @@ pub(super) fn turn_row_joints(solver: &mut Solver, fit: &mut ChainFit) -> bool {
         let Some(on_row) = strokes_on_row(&fit.assignment, &limbs) else {
             continue;
         };
+        let placements = (limbs.len() + 1 - on_row.len().min(limbs.len())..=limbs.len())
+            .try_fold(1usize, |n, k| n.checked_mul(k));
         if on_row.len() < 2
-            || on_row.len() > MAX_PERMUTED_STROKES
+            || placements.is_none_or(|n| n > MAX_PLACEMENTS)
             || on_row.iter().any(|p| p.depth != 0)
         {
             continue;
@@ -126,8 +130,21 @@ pub(super) fn turn_row_joints(solver: &mut Solver, fit: &mut ChainFit) -> bool {
                     .collect()
             })
             .collect();
+        // A stroke pinned to bones goes only where it may.
+        let may_go: Vec<Vec<bool>> = on_row
+            .iter()
+            .map(|p| {
+                limbs
+                    .iter()
+                    .map(|l| solver.setup.stroke_may_cover(p.stroke, &placed_chain(l, p)))
+                    .collect()
+            })
+            .collect();
         let mut best: Option<(f64, Vec<usize>, Matrix3)> = None;
         for placement in injections(on_row.len(), limbs.len()) {
+            if placement.iter().enumerate().any(|(i, &l)| !may_go[i][l]) {
+                continue;
+            }
             let pairs = || {
                 placement
                     .iter()
@@ -252,8 +269,11 @@ fn strokes_on_row(assignment: &[Assignment], limbs: &[Vec<usize>]) -> Option<Vec
         let Some((chain, reversed)) = a else {
             continue;
         };
+        let Some(&top) = chain.first() else {
+            continue;
+        };
         let on_limb = limbs.iter().enumerate().find_map(|(l, limb)| {
-            let depth = limb.iter().position(|&b| b == chain[0])?;
+            let depth = limb.iter().position(|&b| b == top)?;
             Some((l, depth))
         });
         let Some((limb, depth)) = on_limb else {
