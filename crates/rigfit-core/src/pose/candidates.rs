@@ -39,7 +39,8 @@ const PROXIMAL_SAMPLES: usize = 5;
 /// 1 / joints for every chain).
 const RIGID_CHAIN_BONES: usize = 5;
 /// The candidates each stroke keeps (best first). Measured on the corpus's tuning half
-/// with the search below: 16 against 12 (two cases fewer) and 32 (as many, a larger search).
+/// with the assignment's search: 16 against 12 (two cases fewer) and 32 (as many, a larger
+/// search).
 pub(super) const KEPT_CANDIDATES: usize = 16;
 
 /// One way for a stroke to be explained: its cost, the chain's index, and whether the
@@ -149,8 +150,8 @@ pub(super) fn candidates(
         let (stroke, stroke_length) = &setup.strokes.by_arclength[s];
         let stroke_length = *stroke_length;
         // Only the best [`KEPT_CANDIDATES`] are kept: a chain whose cost cannot beat the
-        // worst of the best so far is not measured further. Its kept costs as bits (costs
-        // are never negative, so their bits order as they do), the worst on top.
+        // worst of the best so far is not measured further. The stroke's kept costs, as bits
+        // (costs are never negative, so their bits order as they do), the worst on top.
         let kept_only = setup.options.global_assignment && setup.strokes.allowed_bones[s].is_none();
         let mut best_costs: BinaryHeap<u64> = BinaryHeap::with_capacity(KEPT_CANDIDATES + 1);
         let worst_kept = |best: &BinaryHeap<u64>| match best.peek() {
