@@ -9,6 +9,7 @@
 //!   bases (the knuckles), spread across the joint, tell the turn and the placement
 //!   together ([`turn_row_joints`]).
 
+use super::bones::BoneModel;
 use super::chains::{Assignment, SAMPLES, better_direction};
 use super::fitting::FULL_FIT_STEPS;
 use super::solver::{ChainFit, Solver};
@@ -91,10 +92,7 @@ pub(super) fn turn_row_joints(solver: &mut Solver, fit: &mut ChainFit) -> bool {
         };
         let placements = (limbs.len() + 1 - on_row.len().min(limbs.len())..=limbs.len())
             .try_fold(1usize, |n, k| n.checked_mul(k));
-        if on_row.len() < 2
-            || placements.is_none_or(|n| n > MAX_PLACEMENTS)
-            || on_row.iter().any(|p| p.depth != 0)
-        {
+        if on_row.len() < 2 || placements.is_none_or(|n| n > MAX_PLACEMENTS) {
             continue;
         }
         let bones = &solver.setup.model.bones;
@@ -216,11 +214,10 @@ fn injections(items: usize, slots: usize) -> Vec<Vec<usize>> {
     all
 }
 
-/// A stroke on a row: which limb, from which bone down the limb and over how many.
+/// A stroke on a row: which limb, and over how many of its bones from the top.
 struct RowStroke {
     stroke: usize,
     limb: usize,
-    depth: usize,
     bones: usize,
     reversed: bool,
 }
@@ -231,18 +228,12 @@ struct RowStroke {
 /// no row; the arms alone are mirror images, another move's).
 fn unbranched_limbs(solver: &Solver, row: &[usize]) -> Option<Vec<Vec<usize>>> {
     let model = &solver.setup.model;
-    let next = &model.next_bones;
     let limbs: Vec<Vec<usize>> = row
         .iter()
         .map(|&top| {
-            let mut limb = vec![top];
-            loop {
-                match next[*limb.last().expect("a limb has its top")][..] {
-                    [] => return Some(limb),
-                    [only] if limb.len() < next.len() => limb.push(only),
-                    _ => return None,
-                }
-            }
+            let limb = limb_run(model, top);
+            let last = *limb.last().expect("a run holds its top");
+            model.next_bones[last].is_empty().then_some(limb)
         })
         .collect::<Option<_>>()?;
     let length = |limb: &Vec<usize>| limb.iter().map(|&b| model.bones[b].length).sum::<f64>();
@@ -260,8 +251,9 @@ fn unbranched_limbs(solver: &Solver, row: &[usize]) -> Option<Vec<Vec<usize>>> {
     (alike.len() >= ROW_LIMBS).then_some(alike)
 }
 
-/// The strokes whose chains lie along a limb of the row, at most one a limb; `None` when a
-/// stroke covers part of the row otherwise (across limbs, or with more above the row).
+/// The strokes whose chains run down a limb of the row from its top, at most one a limb;
+/// `None` when a stroke covers part of the row otherwise (across limbs, from lower down the
+/// limb, or with more above the row).
 fn strokes_on_row(assignment: &[Assignment], limbs: &[Vec<usize>]) -> Option<Vec<RowStroke>> {
     let mut on_row = Vec::new();
     let mut taken = vec![false; limbs.len()];
@@ -272,24 +264,19 @@ fn strokes_on_row(assignment: &[Assignment], limbs: &[Vec<usize>]) -> Option<Vec
         let Some(&top) = chain.first() else {
             continue;
         };
-        let on_limb = limbs.iter().enumerate().find_map(|(l, limb)| {
-            let depth = limb.iter().position(|&b| b == top)?;
-            Some((l, depth))
-        });
-        let Some((limb, depth)) = on_limb else {
+        let Some(limb) = limbs.iter().position(|l| l[0] == top) else {
             if chain.iter().any(|b| limbs.iter().any(|l| l.contains(b))) {
                 return None;
             }
             continue;
         };
-        if limbs[limb].get(depth..depth + chain.len()) != Some(&chain[..]) || taken[limb] {
+        if !limbs[limb].starts_with(chain) || taken[limb] {
             return None;
         }
         taken[limb] = true;
         on_row.push(RowStroke {
             stroke: s,
             limb,
-            depth,
             bones: chain.len(),
             reversed: *reversed,
         });
@@ -297,11 +284,23 @@ fn strokes_on_row(assignment: &[Assignment], limbs: &[Vec<usize>]) -> Option<Vec
     Some(on_row)
 }
 
-/// The chain `stroke` takes on `limb`: from its depth down as many bones (fewer when the
-/// limb is shorter); empty when the limb does not reach that deep.
+/// The chain `stroke` takes on `limb`: from its top down as many bones (fewer when the limb
+/// is shorter).
 fn placed_chain(limb: &[usize], stroke: &RowStroke) -> Vec<usize> {
-    let end = (stroke.depth + stroke.bones).min(limb.len());
-    limb.get(stroke.depth..end).unwrap_or(&[]).to_vec()
+    limb[..stroke.bones.min(limb.len())].to_vec()
+}
+
+/// The bones down from `top` while each has one continuation (a limb, or a limb's run down
+/// to where it branches).
+fn limb_run(model: &BoneModel, top: usize) -> Vec<usize> {
+    let mut run = vec![top];
+    while run.len() < model.bones.len() {
+        match model.next_bones[run[run.len() - 1]][..] {
+            [only] => run.push(only),
+            _ => break,
+        }
+    }
+    run
 }
 
 /// Judges `trial` (by [`Solver::accept_judged_after`] a full fit) with the limbs whose
@@ -357,14 +356,8 @@ fn rows(solver: &Solver) -> Vec<Vec<usize>> {
     }
     // A limb's end: down its bones while each has one continuation.
     let limb_end = |top: usize| {
-        let mut bone = top;
-        for _ in 0..model.bones.len() {
-            match model.next_bones[bone][..] {
-                [only] => bone = only,
-                _ => break,
-            }
-        }
-        fk.position(model.bones[bone].child)
+        let run = limb_run(model, top);
+        fk.position(model.bones[run[run.len() - 1]].child)
     };
     by_joint
         .into_iter()
