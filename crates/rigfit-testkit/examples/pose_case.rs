@@ -59,6 +59,13 @@ fn run() -> Result<(), String> {
     let strokes = solved.strokes;
     let result = solved.result.map_err(|e| e.to_string())?;
     let errors = generated.errors(&rig, &result.pose);
+    if generated.twinned() {
+        println!(
+            "the case expects the truth's twin under one of the rig's symmetries (it lies \
+             nearer the start and draws the same strokes); against the truth itself: mean {:.2}%",
+            100.0 * generated.strict_errors(&rig, &result.pose).mean
+        );
+    }
     println!(
         "{rig_id} {} case {index} ({} target): mean {:.2}%, max {:.2}% at {}",
         scenario.name(),

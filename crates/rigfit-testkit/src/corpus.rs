@@ -292,6 +292,9 @@ pub struct CorpusRig {
     /// Give the solver the joint model (as `rigfit pose --joints` does); otherwise it gets
     /// [`CorpusRig::plain_skeleton`]. Cases are drawn with the model either way.
     pub solve_with_joint_model: bool,
+    /// The rig's own symmetries in its start pose ([`crate::symmetry::rig_symmetries`]),
+    /// the identity first: a pose and its twin under one of them draw the same strokes.
+    pub symmetries: Vec<Vec<usize>>,
 }
 
 impl CorpusRig {
@@ -328,6 +331,7 @@ impl CorpusRig {
         }
         let deforming = deforming_joints(&rig);
         let plain_skeleton = rig.skeleton.clone();
+        let symmetries = crate::symmetry::rig_symmetries(&rig, &start, height);
         Ok(Self {
             entry,
             rig,
@@ -337,6 +341,7 @@ impl CorpusRig {
             deforming,
             plain_skeleton,
             solve_with_joint_model: false,
+            symmetries,
         })
     }
 }

@@ -18,7 +18,9 @@
 //! - [`mod@sweep`]: every chosen case solved, with its errors ([`Outcome`]); [`sweep::limb_motion`].
 //! - [`report`]: tables per rig and per half, the worst cases, the held-out check.
 //! - [`symmetry`]: a rig's own geometric symmetries (turns that map its body onto itself
-//!   with joints relabelled), up to which tracking is judged ([`track_corpus`]).
+//!   with joints relabelled), up to which tracking is judged ([`track_corpus`]), and the
+//!   twins a posing case may expect instead of its truth
+//!   ([`scenario::expected_labelling`]).
 //!
 //! The `pose_corpus` example prints the tables; `tests/pose_corpus.rs` asserts the bounds.
 

@@ -16,6 +16,9 @@ pub struct Summary {
     pub scenario: Scenario,
     pub cases: usize,
     pub successes: usize,
+    /// Cases that succeed judged against the truth itself, not its twin nearer the start
+    /// ([`Outcome::strict_success`]).
+    pub strict_successes: usize,
     /// Failures whose result fits the strokes as well as the truth ([`Outcome::ambiguous`]).
     pub ambiguous: usize,
     /// The mean over cases of each case's mean drawn-joint error (failed solves left out).
@@ -32,6 +35,15 @@ impl Summary {
             0.0
         } else {
             self.successes as f64 / self.cases as f64
+        }
+    }
+
+    /// The share of cases that succeed judged against the truth itself.
+    pub fn strict_success_rate(&self) -> f64 {
+        if self.cases == 0 {
+            0.0
+        } else {
+            self.strict_successes as f64 / self.cases as f64
         }
     }
 
@@ -63,6 +75,7 @@ impl Summary {
             scenario,
             cases: outcomes.len(),
             successes: outcomes.iter().filter(|o| o.success()).count(),
+            strict_successes: outcomes.iter().filter(|o| o.strict_success).count(),
             ambiguous: outcomes.iter().filter(|o| o.ambiguous()).count(),
             mean_of_means: if finite.is_empty() {
                 f64::INFINITY
@@ -132,12 +145,13 @@ pub fn text_table(summaries: &[Summary]) -> String {
         .unwrap_or(3)
         .max(3);
     let mut out = format!(
-        "{:width$}  {:8}  {:11}  {:>5}  {:>9}  {:>10}  {:>10}  {:>9}  {:>9}\n",
+        "{:width$}  {:8}  {:11}  {:>5}  {:>9}  {:>8}  {:>10}  {:>10}  {:>9}  {:>9}\n",
         "rig",
         "half",
         "scenario",
         "cases",
         "success%",
+        "strict%",
         "ambiguous%",
         "mean err%",
         "worst max%",
@@ -146,12 +160,13 @@ pub fn text_table(summaries: &[Summary]) -> String {
     for s in summaries {
         let _ = writeln!(
             out,
-            "{:width$}  {:8}  {:11}  {:>5}  {:>9.1}  {:>10.1}  {:>10}  {:>9}  {:>9.1}",
+            "{:width$}  {:8}  {:11}  {:>5}  {:>9.1}  {:>8.1}  {:>10.1}  {:>10}  {:>9}  {:>9.1}",
             s.rig,
             s.half.name(),
             s.scenario.name(),
             s.cases,
             100.0 * s.success_rate(),
+            100.0 * s.strict_success_rate(),
             100.0 * s.ambiguous_rate(),
             percent(s.mean_of_means),
             percent(s.worst_max),
@@ -164,18 +179,19 @@ pub fn text_table(summaries: &[Summary]) -> String {
 /// A Markdown table of summaries, ready for BENCHMARKS.md.
 pub fn markdown_table(summaries: &[Summary]) -> String {
     let mut out = String::from(
-        "| rig | half | scenario | cases | success | ambiguous | mean error | worst max error | median ms |\n\
-         |---|---|---|---:|---:|---:|---:|---:|---:|\n",
+        "| rig | half | scenario | cases | success | strict | ambiguous | mean error | worst max error | median ms |\n\
+         |---|---|---|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for s in summaries {
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {} | {:.0}% | {:.0}% | {}% | {}% | {:.1} |",
+            "| {} | {} | {} | {} | {:.0}% | {:.0}% | {:.0}% | {}% | {}% | {:.1} |",
             s.rig,
             s.half.name(),
             s.scenario.name(),
             s.cases,
             100.0 * s.success_rate(),
+            100.0 * s.strict_success_rate(),
             100.0 * s.ambiguous_rate(),
             percent(s.mean_of_means),
             percent(s.worst_max),
@@ -199,16 +215,22 @@ pub fn worst_table(cases: &[&Outcome]) -> String {
     for o in cases {
         let result = match &o.failure {
             Some(failure) => format!("solve failed: {failure}"),
-            None => format!(
-                "mean {}%  max {}% at {}  undrawn motion {}%  misfit {}% (truth {}%){}",
-                percent(o.mean_error),
-                percent(o.max_error),
-                o.worst_joint,
-                percent(o.undrawn_motion),
-                percent(o.misfit),
-                percent(o.truth_misfit),
-                if o.ambiguous() { "  ambiguous" } else { "" }
-            ),
+            None => {
+                format!(
+                    "mean {}%  max {}% at {}  undrawn motion {}%  misfit {}% (truth {}%){}",
+                    percent(o.mean_error),
+                    percent(o.max_error),
+                    o.worst_joint,
+                    percent(o.undrawn_motion),
+                    percent(o.misfit),
+                    percent(o.truth_misfit),
+                    if o.ambiguous() { "  ambiguous" } else { "" },
+                ) + if o.twinned {
+                    "  (expects the twin)"
+                } else {
+                    ""
+                }
+            }
         };
         let _ = writeln!(
             out,

@@ -5,11 +5,12 @@ use crate::targets::{FarPoseOptions, clip_pose, far_pose, mirror_pose};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rigfit_core::pose::sketch::{
-    Case, CaseOptions, Coverage, JointErrors, desktop_view, draw_case, joint_errors,
+    Case, CaseOptions, Coverage, JointErrors, desktop_view, draw_case,
 };
 use rigfit_core::{Pose, Skeleton};
 
 use crate::corpus::CorpusRig;
+use crate::symmetry::{joint_model_excess, relabelled_error, twin_local_rotations};
 
 /// How far from horizontal the view of a flattened case may tilt (radians).
 const DESKTOP_ELEVATION: f64 = 0.35;
@@ -134,21 +135,92 @@ pub struct GeneratedCase {
     pub truth: Pose,
     pub case: Case,
     pub options: CaseOptions,
+    /// The answer expected, as a relabelling of the truth's joints (joint `i` of the truth
+    /// is expected at joint `labelling[i]` of the answer): the identity, or the truth's twin
+    /// under one of the rig's symmetries when the twin lies nearer the start
+    /// ([`expected_labelling`]).
+    pub labelling: Vec<usize>,
 }
 
 impl GeneratedCase {
-    /// How far `solved`'s drawn joints lie from the truth's on `rig`, as fractions of its
-    /// height.
+    /// How far `solved`'s drawn joints lie from the expected answer's on `rig`, as
+    /// fractions of its height (the worst joint is `solved`'s).
     pub fn errors(&self, rig: &CorpusRig, solved: &Pose) -> JointErrors {
-        joint_errors(
-            &rig.rig.skeleton,
-            solved,
-            &self.truth,
-            &self.case.drawn_joints,
-            rig.height,
-        )
+        self.errors_under(rig, solved, &self.labelling)
+    }
+
+    /// [`GeneratedCase::errors`] against the truth itself, whatever its twins.
+    pub fn strict_errors(&self, rig: &CorpusRig, solved: &Pose) -> JointErrors {
+        let identity: Vec<usize> = (0..self.labelling.len()).collect();
+        self.errors_under(rig, solved, &identity)
+    }
+
+    /// Whether the expected answer is a twin of the truth rather than the truth.
+    pub fn twinned(&self) -> bool {
+        self.labelling.iter().enumerate().any(|(i, &j)| i != j)
+    }
+
+    fn errors_under(&self, rig: &CorpusRig, solved: &Pose, labelling: &[usize]) -> JointErrors {
+        let skeleton = &rig.rig.skeleton;
+        let (solved, truth) = (
+            skeleton.joint_positions(solved),
+            skeleton.joint_positions(&self.truth),
+        );
+        let joints = &self.case.drawn_joints;
+        let mut errors = JointErrors {
+            mean: 0.0,
+            max: 0.0,
+            worst: None,
+        };
+        for &i in joints {
+            let d = (solved[labelling[i]] - truth[i]).norm() / rig.height;
+            errors.mean += d / joints.len() as f64;
+            if errors.worst.is_none() || d > errors.max {
+                errors.max = d;
+                errors.worst = Some(labelling[i]);
+            }
+        }
+        errors
     }
 }
+
+/// The answer a case expects, as a relabelling of the truth's joints (see
+/// [`GeneratedCase::labelling`]). A rig that a turn maps onto itself with its joints
+/// relabelled (a box character turned half round, its left and right limbs swapped) draws
+/// the same strokes in a pose and in that pose's twin, and the solver is given the same
+/// start. When the twin also keeps within the solver's joint model as well as the truth
+/// does (a rig's clips may let its right arm swing further than its left), nothing the
+/// solver is given tells the two apart. Of such twins and the truth, the posing tool
+/// should give the one that keeps the body where it stood (what an animator drawing on the
+/// rig expects): the case expects whichever has its drawn joints nearest their places in
+/// the start pose (the truth on a tie). Which one is decided before the solve, never by
+/// the answer.
+pub fn expected_labelling(rig: &CorpusRig, truth: &Pose, drawn: &[usize]) -> Vec<usize> {
+    let skeleton = &rig.rig.skeleton;
+    let solver = rig.solver_skeleton();
+    // Only the drawn joints' rotations are the strokes' to say (the solver keeps the rest
+    // at the start); a twin draws with the images of the truth's.
+    let excess = |p: &[usize]| {
+        let local = twin_local_rotations(skeleton, &rig.start, truth, p);
+        joint_model_excess(solver, &local, drawn.iter().map(|&i| p[i]))
+    };
+    let (start, truth_at) = (
+        skeleton.joint_positions(&rig.start),
+        skeleton.joint_positions(truth),
+    );
+    let identity: Vec<usize> = (0..skeleton.len()).collect();
+    let truth_excess = excess(&identity);
+    rig.symmetries
+        .iter()
+        .filter(|p| p.as_slice() == identity.as_slice() || excess(p) <= truth_excess + TWIN_EXCESS)
+        .map(|p| (relabelled_error(&start, &truth_at, drawn, p, rig.height), p))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map_or(identity.clone(), |(_, p)| p.clone())
+}
+
+/// A twin keeps within the joint model as well as the truth when its summed squared excess
+/// is at most this much more (radians squared: about a degree in all).
+const TWIN_EXCESS: f64 = 3e-4;
 
 /// The seed of case `index` of `scenario` on rig `rig_id` (FNV-1a of the three, stable
 /// across runs, platforms and Rust versions).
@@ -221,11 +293,13 @@ pub fn generate_case(rig: &CorpusRig, scenario: Scenario, index: usize) -> Gener
             &mut draw_rng,
         );
     }
+    let labelling = expected_labelling(rig, &truth, &case.drawn_joints);
     GeneratedCase {
         target,
         truth,
         case,
         options,
+        labelling,
     }
 }
 

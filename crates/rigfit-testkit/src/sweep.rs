@@ -123,6 +123,11 @@ pub struct Outcome {
     /// found another pose the strokes draw as well (a mirror image turned around).
     pub misfit: f64,
     pub truth_misfit: f64,
+    /// Whether the answer expected is a twin of the truth under one of the rig's
+    /// symmetries ([`crate::scenario::expected_labelling`]).
+    pub twinned: bool,
+    /// Whether the case succeeds judged against the truth itself, whatever its twins.
+    pub strict_success: bool,
 }
 
 impl Outcome {
@@ -312,6 +317,8 @@ pub fn solve_case(
         failure: None,
         misfit: f64::INFINITY,
         truth_misfit: stroke_misfit(skeleton, &generated.truth, &generated.case, rig.height),
+        twinned: generated.twinned(),
+        strict_success: false,
     };
     match result {
         Ok(result) => {
@@ -319,6 +326,9 @@ pub fn solve_case(
             outcome.misfit = stroke_misfit(skeleton, &result.pose, &generated.case, rig.height);
             outcome.mean_error = errors.mean;
             outcome.max_error = errors.max;
+            let strict = generated.strict_errors(rig, &result.pose);
+            outcome.strict_success =
+                strict.mean <= SUCCESS_MEAN_ERROR && strict.max <= SUCCESS_MAX_ERROR;
             outcome.worst_joint = errors
                 .worst
                 .map(|j| skeleton.joint(j).name.clone())
@@ -327,7 +337,11 @@ pub fn solve_case(
                 .case
                 .dropped_chains
                 .iter()
-                .map(|chain| limb_motion(skeleton, &rig.start, &result.pose, chain, rig.height))
+                .map(|chain| {
+                    // Expecting a twin, the answer's undrawn limb is the image of the truth's.
+                    let chain: Vec<usize> = chain.iter().map(|&j| generated.labelling[j]).collect();
+                    limb_motion(skeleton, &rig.start, &result.pose, &chain, rig.height)
+                })
                 .fold(0.0, f64::max);
         }
         Err(e) => outcome.failure = Some(e.to_string()),

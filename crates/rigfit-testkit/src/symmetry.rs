@@ -307,6 +307,78 @@ pub fn joint_means(
         .collect()
 }
 
+/// The rotation part of the turn that maps the joints at `positions` onto their images
+/// under `permutation` (joint `i` onto joint `permutation[i]`; Kabsch about the centroid).
+pub fn permutation_rotation(
+    positions: &[Point3],
+    permutation: &[usize],
+) -> nalgebra::UnitQuaternion<f64> {
+    let centroid = centroid(positions);
+    let mut covariance = nalgebra::Matrix3::<f64>::zeros();
+    for (i, &image) in permutation.iter().enumerate() {
+        covariance += (positions[image] - centroid) * (positions[i] - centroid).transpose();
+    }
+    let rotation = rigfit_core::math::nearest_rotation(&covariance);
+    // Not `from_matrix`: its iteration starts at the identity and stalls at a half turn.
+    nalgebra::UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(rotation))
+}
+
+/// The local rotations of the twin of `pose` under the symmetry `permutation` of the rig in
+/// `start` (a [`rig_symmetries`] result): the pose whose joint `permutation[i]` lies where
+/// `pose` has joint `i`, drawn by the same points. With `H` the symmetry's turn and `R` the
+/// world rotations, the twin's `R[P(i)] = R_pose[i] R_start[i]^-1 H^-1 R_start[P(i)]`, which
+/// keeps every bone's offset in its parent's frame.
+pub fn twin_local_rotations(
+    skeleton: &Skeleton,
+    start: &Pose,
+    pose: &Pose,
+    permutation: &[usize],
+) -> Vec<rigfit_core::Quat> {
+    let turn = permutation_rotation(&skeleton.joint_positions(start), permutation);
+    let (at_start, posed) = (
+        skeleton.world_rotations(start),
+        skeleton.world_rotations(pose),
+    );
+    let mut twin = vec![rigfit_core::Quat::identity(); skeleton.len()];
+    for (i, &image) in permutation.iter().enumerate() {
+        twin[image] = posed[i] * at_start[i].inverse() * turn.inverse() * at_start[image];
+    }
+    (0..skeleton.len())
+        .map(|j| match skeleton.joint(j).parent {
+            Some(p) => twin[p].inverse() * twin[j],
+            None => twin[j],
+        })
+        .collect()
+}
+
+/// How far the local rotations `local` of `joints` lie outside `skeleton`'s joint model:
+/// the summed squared excess over each joint's limits (radians), plus, at a hinge, the
+/// squared turn about other axes than its own.
+pub fn joint_model_excess(
+    skeleton: &Skeleton,
+    local: &[rigfit_core::Quat],
+    joints: impl Iterator<Item = usize>,
+) -> f64 {
+    use rigfit_core::skeleton::JointDof;
+    joints
+        .map(|j| {
+            let joint = skeleton.joint(j);
+            let relative = (joint.rest.rotation.inverse() * local[j]).scaled_axis();
+            let off_axis = match &joint.dof {
+                JointDof::Hinge { axis } => {
+                    let axis = axis.normalize();
+                    (relative - axis * relative.dot(&axis)).norm_squared()
+                }
+                _ => 0.0,
+            };
+            let outside = joint.limits.as_ref().map_or(0.0, |limits| {
+                rigfit_core::joint_model::limit_excess(&joint.dof, limits, &relative).norm_squared()
+            });
+            off_axis + outside
+        })
+        .sum()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -346,6 +418,96 @@ mod tests {
     fn an_asymmetric_bare_skeleton_has_only_the_identity() {
         let rig = two_armed(0.8);
         assert_eq!(rig_symmetries(&rig, &rig.pose, 2.0).len(), 1);
+    }
+
+    /// [`two_armed`] with a head above the root, so that one turn (half round about the
+    /// vertical) maps it onto itself.
+    fn headed() -> Rig {
+        let mut rig = two_armed(0.5);
+        let mut joints = rig.skeleton.joints().to_vec();
+        joints.push(Joint::new(
+            "head",
+            Some(0),
+            Trs {
+                translation: Vector3::new(0.0, 0.6, 0.0),
+                ..Trs::default()
+            },
+        ));
+        rig.skeleton = Skeleton::new(joints).expect("skeleton");
+        rig.pose = rig.skeleton.rest_pose();
+        rig
+    }
+
+    #[test]
+    fn a_twin_is_drawn_by_the_same_points() {
+        let rig = headed();
+        let skeleton = &rig.skeleton;
+        let found = rig_symmetries(&rig, &rig.pose, 2.0);
+        assert_eq!(found.len(), 2, "{found:?}");
+        let swap = &found[1];
+        // The root turned far and moved, each arm bent its own way.
+        let mut pose = rig.pose.clone();
+        let turn = |axis: Vector3, degrees: f64| {
+            rigfit_core::Quat::from_axis_angle(&Unit::new_normalize(axis), degrees.to_radians())
+        };
+        pose.local[0].rotation = turn(Vector3::new(0.2, 1.0, 0.1), 150.0);
+        pose.local[0].translation = Vector3::new(0.3, -0.1, 0.7);
+        pose.local[1].rotation = turn(Vector3::z(), 40.0);
+        pose.local[2].rotation = turn(Vector3::new(0.0, 1.0, 1.0), 30.0);
+        pose.local[3].rotation = turn(Vector3::new(1.0, 0.0, 1.0), -70.0);
+        let mut twin = pose.clone();
+        for (j, rotation) in twin_local_rotations(skeleton, &rig.pose, &pose, swap)
+            .into_iter()
+            .enumerate()
+        {
+            twin.local[j].rotation = rotation;
+        }
+        let (at, twin_at) = (
+            skeleton.joint_positions(&pose),
+            skeleton.joint_positions(&twin),
+        );
+        for (i, &image) in swap.iter().enumerate() {
+            assert!(
+                (twin_at[image] - at[i]).norm() < 1e-9,
+                "joint {i}: {} vs {} ({swap:?})",
+                twin_at[image],
+                at[i]
+            );
+        }
+        // The twin of the start turns the root half round; its arms do not bend.
+        let start_twin = twin_local_rotations(skeleton, &rig.pose, &rig.pose, swap);
+        assert!((start_twin[0].angle() - std::f64::consts::PI).abs() < 1e-9);
+        assert!(start_twin[1].angle() < 1e-9 && start_twin[3].angle() < 1e-9);
+    }
+
+    #[test]
+    fn the_joint_model_excess_counts_limits_and_hinges() {
+        use rigfit_core::JointLimits;
+        use rigfit_core::skeleton::JointDof;
+        let mut rig = headed();
+        let mut joints = rig.skeleton.joints().to_vec();
+        joints[1].limits = Some(JointLimits {
+            min: Vector3::repeat(-0.5),
+            max: Vector3::repeat(0.5),
+        });
+        joints[3].dof = JointDof::Hinge { axis: Vector3::z() };
+        rig.skeleton = Skeleton::new(joints).expect("skeleton");
+        let skeleton = &rig.skeleton;
+        let mut local: Vec<rigfit_core::Quat> = vec![rigfit_core::Quat::identity(); skeleton.len()];
+        let all = || 0..skeleton.len();
+        assert_eq!(joint_model_excess(skeleton, &local, all()), 0.0);
+        local[1] = rigfit_core::Quat::from_axis_angle(&Vector3::z_axis(), 0.8);
+        assert!((joint_model_excess(skeleton, &local, all()) - 0.09).abs() < 1e-9);
+        // Only the joints asked about count.
+        assert_eq!(
+            joint_model_excess(skeleton, &local, [0, 2, 3].into_iter()),
+            0.0
+        );
+        // A hinge turned about its own axis is free, about another is not.
+        local[3] = rigfit_core::Quat::from_axis_angle(&Vector3::z_axis(), 1.0);
+        assert_eq!(joint_model_excess(skeleton, &local, [3].into_iter()), 0.0);
+        local[3] = rigfit_core::Quat::from_axis_angle(&Vector3::x_axis(), 0.2);
+        assert!((joint_model_excess(skeleton, &local, [3].into_iter()) - 0.04).abs() < 1e-9);
     }
 
     #[test]
