@@ -7,7 +7,7 @@
 //! the strokes better.
 
 use super::assignment::complete_greedily;
-use super::candidates::{Candidates, STRAY_COST, candidates};
+use super::candidates::{Candidate, Candidates, STRAY_COST, candidates};
 use super::chains::{Assignment, better_direction, stroke_length};
 use super::fitting::FULL_FIT_STEPS;
 use super::row_shift::{shift_along_rows, turn_row_joints};
@@ -251,7 +251,12 @@ fn give_strays_free_chains(solver: &mut Solver, fit: &mut ChainFit) -> bool {
     // chains around it, and those are taken.
     let mut ranked = solver.free_chains_ranked(&fit.assignment);
     for e in set_aside {
-        let picks: Vec<_> = ranked[e].iter().take(FREE_CHAINS_TRIED).copied().collect();
+        let picks = limb_picks(
+            &ranked[e],
+            |c| (solver.chains[c.chain][0], c.reversed),
+            |c| solver.chain_length(&solver.chains[c.chain]),
+            stroke_length(&solver.setup, e),
+        );
         for pick in picks {
             let mut trial = fit.assignment.clone();
             trial[e] = Some((solver.chains[pick.chain].clone(), pick.reversed));
@@ -265,8 +270,38 @@ fn give_strays_free_chains(solver: &mut Solver, fit: &mut ChainFit) -> bool {
     improved
 }
 
-/// Free chains tried for a stroke set aside.
+/// Free limbs tried for a stroke set aside.
 const FREE_CHAINS_TRIED: usize = 2;
+
+/// Of a stroke's candidates `ranked` (best first), one per limb (`limb`: the chain's first
+/// bone and which way round the stroke runs) for the [`FREE_CHAINS_TRIED`] best limbs: the
+/// one whose `length` is nearest the stroke's `drawn` length. Shape alone cannot tell how
+/// much of a limb a stroke drawn far from it covers, and a part of one limb that looks a
+/// little more like the stroke would otherwise take every trial.
+fn limb_picks(
+    ranked: &[Candidate],
+    limb: impl Fn(&Candidate) -> (usize, bool),
+    length: impl Fn(&Candidate) -> f64,
+    drawn: f64,
+) -> Vec<Candidate> {
+    let mut limbs: Vec<(usize, bool)> = Vec::new();
+    for c in ranked {
+        if limbs.len() < FREE_CHAINS_TRIED && !limbs.contains(&limb(c)) {
+            limbs.push(limb(c));
+        }
+    }
+    let mismatch = |c: &&Candidate| (length(c) - drawn).abs();
+    limbs
+        .into_iter()
+        .filter_map(|l| {
+            ranked
+                .iter()
+                .filter(|c| limb(c) == l)
+                .min_by(|a, b| mismatch(a).total_cmp(&mismatch(b)))
+                .copied()
+        })
+        .collect()
+}
 
 /// Give a stroke one of its best candidate chains at the current pose, and let the strokes
 /// whose chains that takes pick again.
@@ -353,4 +388,49 @@ fn move_to_free_chains(solver: &mut Solver, fit: &mut ChainFit) -> bool {
         }
     }
     improved
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_stray_tries_the_best_limbs_each_at_its_length() {
+        // Chains 0-2 are one limb (lengths 1, 2, 3), chain 3 another (length 2), chain 4 a
+        // third; the part of the first limb that looks most like the stroke comes first.
+        let candidate = |chain: usize, cost: f64| Candidate {
+            cost,
+            chain,
+            reversed: false,
+        };
+        let ranked = [
+            candidate(0, 0.1),
+            candidate(1, 0.11),
+            candidate(3, 0.12),
+            candidate(2, 0.13),
+            candidate(4, 0.2),
+        ];
+        let limb = |c: &Candidate| (if c.chain < 3 { 0 } else { c.chain }, c.reversed);
+        let length = |c: &Candidate| [1.0, 2.0, 3.0, 2.0, 1.0][c.chain];
+        let picks = limb_picks(&ranked, limb, length, 2.9);
+        assert_eq!(
+            picks.iter().map(|c| c.chain).collect::<Vec<_>>(),
+            vec![2, 3]
+        );
+        // The same limb drawn the other way round is another trial.
+        let mut turned = ranked;
+        turned[2] = Candidate {
+            chain: 0,
+            reversed: true,
+            cost: 0.12,
+        };
+        let picks = limb_picks(&turned, limb, length, 1.2);
+        assert_eq!(
+            picks
+                .iter()
+                .map(|c| (c.chain, c.reversed))
+                .collect::<Vec<_>>(),
+            vec![(0, false), (0, true)]
+        );
+    }
 }
