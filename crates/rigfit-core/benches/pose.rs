@@ -2,7 +2,8 @@
 //! strokes of 100 points, the corpus's 75-joint mrfixit with 30 strokes of 100 points on
 //! every chain (three poses of its clip), its largest rig (the 82-joint fruit fly) with 17,
 //! and the built-in humanoid with its 6 limb strokes. The goal is live feedback while a
-//! stroke is drawn.
+//! stroke is drawn. BCN and mrfixit at 1 s are also solved as the extensions solve while
+//! an animator draws: one stroke added to the pose solved from the others.
 //!
 //! `cargo bench -p rigfit-core --bench pose`
 
@@ -73,6 +74,42 @@ fn bench_rig(
     }
 }
 
+/// Benches drawing one stroke more, as the Blender extension and the web page solve: the
+/// pose solved from all strokes but the last is the start of the solve with all of them
+/// (`NAME_one_more_stroke`).
+fn bench_one_more_stroke(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    rig: &Rig,
+    truth: &Pose,
+    (strokes, min_chain_length): (usize, f64),
+) {
+    let options = CaseOptions {
+        min_chain_length,
+        ..Default::default()
+    };
+    let drawn = strokes_of_size(rig, truth, strokes, 100, &options);
+    let skeleton = with_clip_ranges(&rig.skeleton, &rig.animations);
+    let before = PoseProblem {
+        skeleton: &skeleton,
+        start: &rig.pose,
+        strokes: &drawn[..drawn.len() - 1],
+        movable: None,
+        height: rig.height(),
+    };
+    let posed = solve_pose(&before, &PoseOptions::default())
+        .expect("solves")
+        .pose;
+    let problem = PoseProblem {
+        start: &posed,
+        strokes: &drawn,
+        ..before
+    };
+    group.bench_function(format!("{name}_one_more_stroke"), |b| {
+        b.iter(|| solve_pose(&problem, &PoseOptions::default()).expect("solves"))
+    });
+}
+
 fn bench(c: &mut Criterion) {
     let file = read_rig(
         &rigfit_testkit::assets::asset("assimp/BCN_Epileptic.glb"),
@@ -86,6 +123,7 @@ fn bench(c: &mut Criterion) {
     let truth = rig.animations[0].sample(&rig.pose, 1.5);
     let name = "bcn_55_joints_10_strokes_x100";
     bench_rig(&mut group, name, rig, &truth, (10, 0.03), true);
+    bench_one_more_stroke(&mut group, name, rig, &truth, (10, 0.03));
     let humanoid = rigfit_core::humanoid::humanoid();
     let truth = humanoid.animations[0].sample(&humanoid.pose, 1.0);
     let name = "humanoid_26_joints_6_strokes_x100";
@@ -103,6 +141,9 @@ fn bench(c: &mut Criterion) {
         ] {
             let truth = rig.animations[0].sample(&rig.pose, t);
             bench_rig(&mut group, name, &rig, &truth, (30, 0.005), false);
+            if t == 1.0 {
+                bench_one_more_stroke(&mut group, name, &rig, &truth, (30, 0.005));
+            }
         }
     }
     if let Some(rig) = corpus_rig("dm_control/fruitfly.glb", 82) {
