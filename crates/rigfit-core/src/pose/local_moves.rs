@@ -1,6 +1,7 @@
 //! Local moves on a fitted hypothesis: swap the chains of mirror-image limbs, trade a stray
-//! for an assigned stroke, give a stroke another close chain (the strokes that lose bones
-//! pick again), move a stroke to a free chain of about its length, shift a run of strokes
+//! for an assigned stroke, give a stray the free limbs most like it ([`limb_picks`]), give a
+//! stroke another close chain (the strokes that lose bones pick again), move a stroke to a
+//! free chain of about its length, shift a run of strokes
 //! along a row of alike limbs ([`shift_along_rows`]), and turn the joint a row fans out of
 //! with the row's strokes placed anew ([`turn_row_joints`]). Every move is judged
 //! by one accept step ([`Solver::accept`]): a quick fit, then a full one when it explains
@@ -236,8 +237,8 @@ fn trade_strays(solver: &mut Solver, fit: &mut ChainFit) -> bool {
 }
 
 /// A stroke set aside because no chain looked like it at the start pose (a limb drawn bent
-/// far from its shape there) may still be one: give it the free chains that fit it best,
-/// however much they must bend, and let the fit judge.
+/// far from its shape there) may still be one: give it the free limbs that fit it best
+/// ([`limb_picks`]), however much they must bend, and let a full fit judge.
 fn give_strays_free_chains(solver: &mut Solver, fit: &mut ChainFit) -> bool {
     let strokes = fit.assignment.len();
     let mut improved = false;

@@ -71,8 +71,8 @@ pub struct PieceTree {
 
 impl PieceTree {
     /// The tree of `model`'s pieces, or `None` when it has fewer than two, no contact links
-    /// between them, a piece across most of it (a skin, [`SKIN_SPAN`]), or the articulated
-    /// model cannot be built.
+    /// between them, a piece across most of it (a skin, more than 3/4 of the diagonal), or
+    /// the articulated model cannot be built.
     pub fn new(model: &PatchModel, options: &PieceTreeOptions) -> Option<Self> {
         let pieces = model.component.iter().map(|&c| c as usize + 1).max()?;
         if pieces < 2 || model.contacts.is_empty() {
