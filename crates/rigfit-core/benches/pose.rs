@@ -12,7 +12,7 @@ use rand::SeedableRng;
 use rigfit_core::joint_model::with_clip_ranges;
 use rigfit_core::pose::sketch::CaseOptions;
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
-use rigfit_core::{Pose, Rig};
+use rigfit_core::{Pose, Rig, Skeleton, Stroke};
 use rigfit_formats::rig_file::{RigOptions, read_rig};
 use rigfit_testkit::pose_suites::strokes_of_size;
 use rigfit_testkit::targets::{FarPoseOptions, far_pose};
@@ -38,17 +38,14 @@ fn corpus_rig(file: &str, joints: usize) -> Option<Rig> {
     }
 }
 
-/// Benches posing `rig` from `strokes` strokes of 100 points drawn on the chains of
-/// `truth` at least `min_chain_length` of the height long, with the skeleton `rigfit pose`
-/// uses; with `paper_too`, the published method as well (`NAME_paper`).
-fn bench_rig(
-    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+/// `strokes` strokes of 100 points drawn on the chains of `truth` at least
+/// `min_chain_length` of the height long, and the skeleton `rigfit pose` uses for `rig`.
+fn drawn_on(
     name: &str,
     rig: &Rig,
     truth: &Pose,
     (strokes, min_chain_length): (usize, f64),
-    paper_too: bool,
-) {
+) -> (Vec<Stroke>, Skeleton) {
     let options = CaseOptions {
         min_chain_length,
         ..Default::default()
@@ -56,7 +53,20 @@ fn bench_rig(
     let drawn = strokes_of_size(rig, truth, strokes, 100, &options);
     assert_eq!(drawn.len(), strokes, "{name}");
     assert!(drawn.iter().all(|s| s.points.len() == 100), "{name}");
-    let skeleton = with_clip_ranges(&rig.skeleton, &rig.animations);
+    (drawn, with_clip_ranges(&rig.skeleton, &rig.animations))
+}
+
+/// Benches posing `rig` from the strokes [`drawn_on`] `truth`; with `paper_too`, the
+/// published method as well (`NAME_paper`).
+fn bench_rig(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    rig: &Rig,
+    truth: &Pose,
+    strokes: (usize, f64),
+    paper_too: bool,
+) {
+    let (drawn, skeleton) = drawn_on(name, rig, truth, strokes);
     let problem = PoseProblem {
         skeleton: &skeleton,
         start: &rig.pose,
@@ -82,14 +92,9 @@ fn bench_one_more_stroke(
     name: &str,
     rig: &Rig,
     truth: &Pose,
-    (strokes, min_chain_length): (usize, f64),
+    strokes: (usize, f64),
 ) {
-    let options = CaseOptions {
-        min_chain_length,
-        ..Default::default()
-    };
-    let drawn = strokes_of_size(rig, truth, strokes, 100, &options);
-    let skeleton = with_clip_ranges(&rig.skeleton, &rig.animations);
+    let (drawn, skeleton) = drawn_on(name, rig, truth, strokes);
     let before = PoseProblem {
         skeleton: &skeleton,
         start: &rig.pose,

@@ -31,28 +31,25 @@ pub struct Summary {
 impl Summary {
     /// The share of cases that succeeded (0 for no cases).
     pub fn success_rate(&self) -> f64 {
-        if self.cases == 0 {
-            0.0
-        } else {
-            self.successes as f64 / self.cases as f64
-        }
+        self.share(self.successes)
     }
 
     /// The share of cases that succeed judged against the truth itself.
     pub fn strict_success_rate(&self) -> f64 {
-        if self.cases == 0 {
-            0.0
-        } else {
-            self.strict_successes as f64 / self.cases as f64
-        }
+        self.share(self.strict_successes)
     }
 
     /// The share of cases that failed on an ambiguous drawing.
     pub fn ambiguous_rate(&self) -> f64 {
+        self.share(self.ambiguous)
+    }
+
+    /// `count` as a share of the cases (0 for no cases).
+    fn share(&self, count: usize) -> f64 {
         if self.cases == 0 {
             0.0
         } else {
-            self.ambiguous as f64 / self.cases as f64
+            count as f64 / self.cases as f64
         }
     }
 

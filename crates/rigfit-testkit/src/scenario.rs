@@ -7,7 +7,7 @@ use rand::rngs::StdRng;
 use rigfit_core::pose::sketch::{
     Case, CaseOptions, Coverage, JointErrors, desktop_view, draw_case,
 };
-use rigfit_core::{Pose, Skeleton};
+use rigfit_core::{Pose, Quat, Skeleton};
 
 use crate::corpus::CorpusRig;
 use crate::symmetry::{joint_model_excess, relabelled_error, twin_local_rotations};
@@ -209,7 +209,8 @@ pub fn expected_labelling(rig: &CorpusRig, truth: &Pose, drawn: &[usize]) -> Vec
         skeleton.joint_positions(truth),
     );
     let identity: Vec<usize> = (0..skeleton.len()).collect();
-    let truth_excess = excess(&identity);
+    let truth_local: Vec<Quat> = truth.local.iter().map(|t| t.rotation).collect();
+    let truth_excess = joint_model_excess(solver, &truth_local, drawn.iter().copied());
     rig.symmetries
         .iter()
         .filter(|p| p.as_slice() == identity.as_slice() || excess(p) <= truth_excess + TWIN_EXCESS)

@@ -133,9 +133,7 @@ pub struct Outcome {
 impl Outcome {
     /// Mean drawn-joint error at most 3% of the height and no drawn joint over 10%.
     pub fn success(&self) -> bool {
-        self.failure.is_none()
-            && self.mean_error <= SUCCESS_MEAN_ERROR
-            && self.max_error <= SUCCESS_MAX_ERROR
+        self.failure.is_none() && within_bounds(self.mean_error, self.max_error)
     }
 
     /// How far past the bounds the case is (at most 1 for a success): the larger of its
@@ -154,6 +152,12 @@ impl Outcome {
             && !self.success()
             && self.misfit <= self.truth_misfit + AMBIGUITY_TOLERANCE
     }
+}
+
+/// Whether a mean and a largest drawn-joint error (fractions of the height) are within a
+/// case's bounds.
+fn within_bounds(mean: f64, max: f64) -> bool {
+    mean <= SUCCESS_MEAN_ERROR && max <= SUCCESS_MAX_ERROR
 }
 
 /// How far a pose's drawn chains are from the strokes drawn on them, in heights: the mean
@@ -327,8 +331,7 @@ pub fn solve_case(
             outcome.mean_error = errors.mean;
             outcome.max_error = errors.max;
             let strict = generated.strict_errors(rig, &result.pose);
-            outcome.strict_success =
-                strict.mean <= SUCCESS_MEAN_ERROR && strict.max <= SUCCESS_MAX_ERROR;
+            outcome.strict_success = within_bounds(strict.mean, strict.max);
             outcome.worst_joint = errors
                 .worst
                 .map(|j| skeleton.joint(j).name.clone())

@@ -309,18 +309,15 @@ pub fn joint_means(
 
 /// The rotation part of the turn that maps the joints at `positions` onto their images
 /// under `permutation` (joint `i` onto joint `permutation[i]`; Kabsch about the centroid).
-pub fn permutation_rotation(
-    positions: &[Point3],
-    permutation: &[usize],
-) -> nalgebra::UnitQuaternion<f64> {
+pub fn permutation_rotation(positions: &[Point3], permutation: &[usize]) -> rigfit_core::Quat {
     let centroid = centroid(positions);
     let mut covariance = nalgebra::Matrix3::<f64>::zeros();
     for (i, &image) in permutation.iter().enumerate() {
         covariance += (positions[image] - centroid) * (positions[i] - centroid).transpose();
     }
-    let rotation = rigfit_core::math::nearest_rotation(&covariance);
-    // Not `from_matrix`: its iteration starts at the identity and stalls at a half turn.
-    nalgebra::UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(rotation))
+    // Not `UnitQuaternion::from_matrix`: its iteration starts at the identity and stalls at
+    // a half turn.
+    rigfit_core::math::rotation_quat(&rigfit_core::math::nearest_rotation(&covariance))
 }
 
 /// The local rotations of the twin of `pose` under the symmetry `permutation` of the rig in
