@@ -149,6 +149,30 @@ fn sweep_gives_finite_errors_on_two_rigs() {
     }
 }
 
+/// Two tuning-half cases where a limb's stroke took the mirror-image limb (left undrawn)
+/// and a stray or a fragment took part of its own: the local moves give the stroke its limb
+/// back and set the other aside (`take_mirror_limbs_held_in_part`).
+#[test]
+fn a_stroke_on_the_undrawn_mirror_limb_takes_its_own_back() {
+    let corpus = corpus();
+    for (rig, case) in [("bvhtoolbox-mocapbank", 25), ("assimp-testwuson", 29)] {
+        let options = SweepOptions {
+            rigs: vec![rig.to_string()],
+            scenarios: vec![Scenario::EveryChain],
+            cases: case + 1,
+            only_case: Some(case),
+            ..SweepOptions::default()
+        };
+        let outcomes = sweep(&corpus, &options, |_, _| {}).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(outcomes.len(), 1);
+        assert!(
+            outcomes[0].success(),
+            "{rig} case {case}: {:?}",
+            outcomes[0]
+        );
+    }
+}
+
 /// The whole corpus swept once for the bound tests below.
 fn whole_corpus() -> &'static [Outcome] {
     static OUTCOMES: OnceLock<Vec<Outcome>> = OnceLock::new();

@@ -306,7 +306,11 @@ fn limb_run(model: &BoneModel, top: usize) -> Vec<usize> {
 /// Judges `trial` (by [`Solver::accept_judged_after`] a full fit) with the limbs whose
 /// strokes it moves back at their start pose: a finger curled for one stroke is no start for
 /// its neighbour's. The pose is restored when it is not taken.
-fn judge_from_start(solver: &mut Solver, trial: &[Assignment], fit: &mut ChainFit) -> bool {
+pub(super) fn judge_from_start(
+    solver: &mut Solver,
+    trial: &[Assignment],
+    fit: &mut ChainFit,
+) -> bool {
     let saved = solver.fitter.pose.clone();
     let bones = &solver.setup.model.bones;
     let moved = trial
