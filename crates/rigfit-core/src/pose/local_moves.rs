@@ -1,17 +1,19 @@
-//! Local moves on a fitted hypothesis: swap the chains of mirror-image limbs, trade a stray
-//! for an assigned stroke, give a stray the free limbs most like it ([`limb_picks`]), give a
-//! stroke another close chain (the strokes that lose bones pick again), move a stroke to a
-//! free chain of about its length, shift a run of strokes
-//! along a row of alike limbs ([`shift_along_rows`]), and turn the joint a row fans out of
-//! with the row's strokes placed anew ([`turn_row_joints`]). Every move is judged
-//! by one accept step ([`Solver::accept`]): a quick fit, then a full one when it explains
-//! the strokes better.
+//! Local moves on a fitted hypothesis: the moves between mirror-image limbs
+//! ([`swap_mirror_limbs`], [`turn_round_at_forks`], [`take_mirror_limbs_held_in_part`]),
+//! trade a stray for an assigned stroke, give a stray the free limbs most like it
+//! ([`limb_picks`]), give a stroke another close chain (the strokes that lose bones pick
+//! again), move a stroke to a free chain of about its length, shift a run of strokes along
+//! a row of alike limbs ([`shift_along_rows`]), and turn the joint a row fans out of with
+//! the row's strokes placed anew ([`turn_row_joints`]). Every move is judged by one accept
+//! step ([`Solver::accept`]): a quick fit, then a full one when it explains the strokes
+//! better.
 
 use super::assignment::complete_greedily;
 use super::candidates::{Candidate, Candidates, STRAY_COST, candidates};
 use super::chains::{Assignment, better_direction, stroke_length};
 use super::fitting::FULL_FIT_STEPS;
-use super::row_shift::{judge_from_start, shift_along_rows, turn_row_joints};
+use super::mirror_moves::{swap_mirror_limbs, take_mirror_limbs_held_in_part, turn_round_at_forks};
+use super::row_shift::{shift_along_rows, turn_row_joints};
 use super::solver::{ChainFit, Solver};
 
 /// Levenberg-Marquardt steps used to judge a trial assignment.
@@ -29,7 +31,7 @@ const MAX_STRAY_EXCHANGES: usize = 8;
 const PASSES: usize = 2;
 
 /// Mirror-image limbs: chains of as many bones whose lengths differ by at most this share.
-const MIRROR_LENGTH_TOLERANCE: f64 = 0.15;
+pub(super) const MIRROR_LENGTH_TOLERANCE: f64 = 0.15;
 
 /// Improves `fit` by local moves until none helps.
 pub(super) fn improve(solver: &mut Solver, mut fit: ChainFit) -> ChainFit {
@@ -40,6 +42,7 @@ pub(super) fn improve(solver: &mut Solver, mut fit: ChainFit) -> ChainFit {
             break;
         }
         let mut improved = swap_mirror_limbs(solver, &mut fit);
+        improved |= turn_round_at_forks(solver, &mut fit);
         improved |= trade_strays(solver, &mut fit);
         improved |= give_strays_free_chains(solver, &mut fit);
         improved |= take_close_chains(solver, &mut fit);
@@ -59,7 +62,7 @@ impl Solver<'_> {
     /// The one accept step: judges `trial` from the current pose by a quick fit; when it
     /// explains the strokes better than `fit`, fits it fully and makes it `fit`. Otherwise
     /// the pose is restored.
-    fn accept(&mut self, trial: Vec<Assignment>, fit: &mut ChainFit) -> bool {
+    pub(super) fn accept(&mut self, trial: Vec<Assignment>, fit: &mut ChainFit) -> bool {
         self.accept_judged_after(trial, fit, QUICK_FIT_STEPS)
     }
 
@@ -152,7 +155,7 @@ impl Solver<'_> {
     }
 
     /// The stroke of `assignment` covering each bone, if any.
-    fn bone_owners(&self, assignment: &[Assignment]) -> Vec<Option<usize>> {
+    pub(super) fn bone_owners(&self, assignment: &[Assignment]) -> Vec<Option<usize>> {
         let mut owner = vec![None; self.setup.model.bones.len()];
         for (t, a) in assignment.iter().enumerate() {
             a.iter()
@@ -162,112 +165,12 @@ impl Solver<'_> {
         owner
     }
 
-    fn chain_length(&self, chain: &[usize]) -> f64 {
+    pub(super) fn chain_length(&self, chain: &[usize]) -> f64 {
         chain
             .iter()
             .map(|&b| self.setup.model.bones[b].length)
             .sum()
     }
-}
-
-/// Swap the chains of two strokes on mirror-image limbs when that explains them better.
-fn swap_mirror_limbs(solver: &mut Solver, fit: &mut ChainFit) -> bool {
-    let strokes = fit.assignment.len();
-    let mut improved = false;
-    for s in 0..strokes {
-        for t in s + 1..strokes {
-            let (Some((cs, _)), Some((ct, _))) = (&fit.assignment[s], &fit.assignment[t]) else {
-                continue;
-            };
-            if !solver.setup.stroke_may_cover(s, ct) || !solver.setup.stroke_may_cover(t, cs) {
-                continue;
-            }
-            let (ls, lt) = (solver.chain_length(cs), solver.chain_length(ct));
-            if cs.len() != ct.len() || (ls - lt).abs() > MIRROR_LENGTH_TOLERANCE * ls.max(lt) {
-                continue;
-            }
-            let (cs, ct) = (cs.clone(), ct.clone());
-            let pose = &solver.fitter.pose;
-            let mut trial = fit.assignment.clone();
-            trial[s] = Some((ct.clone(), better_direction(&solver.setup, pose, s, &ct)));
-            trial[t] = Some((cs.clone(), better_direction(&solver.setup, pose, t, &cs)));
-            let carried = solver.bone_mirrors.as_ref().and_then(|mirrors| {
-                carried_across(
-                    &trial,
-                    [s, t],
-                    [&cs, &ct],
-                    mirrors,
-                    &solver.setup.model.next_bones,
-                    |u, c| solver.setup.stroke_may_cover(u, c),
-                )
-            });
-            // Judged from the current pose first, then with both limbs back at their start
-            // pose: two limbs crossing over each other to trade places stop half way.
-            if solver.accept(trial.clone(), fit) || judge_from_start(solver, &trial, fit) {
-                improved = true;
-            } else if let Some(carried) = carried {
-                improved |=
-                    solver.accept(carried.clone(), fit) || judge_from_start(solver, &carried, fit);
-            }
-        }
-    }
-    improved
-}
-
-/// `swapped` (strokes `pair` traded between the mirror-image `limbs`) with every other
-/// stroke on the bones below either limb moved to its mirror image as well (`mirrors`: one
-/// entry per bone; `next_bones`: each bone's continuations; `may_cover(stroke, chain)`: a
-/// stroke pinned to bones goes only where it may): the hand's strokes go with the arm.
-/// `None` when no stroke lies below them, a bone has no mirror or an image would cover a
-/// bone twice.
-fn carried_across(
-    swapped: &[Assignment],
-    pair: [usize; 2],
-    limbs: [&[usize]; 2],
-    mirrors: &[Option<usize>],
-    next_bones: &[Vec<usize>],
-    may_cover: impl Fn(usize, &[usize]) -> bool,
-) -> Option<Vec<Assignment>> {
-    let below = bones_below(next_bones, &limbs);
-    let mut carried = swapped.to_vec();
-    let mut moved = false;
-    for (u, a) in carried.iter_mut().enumerate() {
-        let Some((chain, reversed)) = a.as_ref() else {
-            continue;
-        };
-        if pair.contains(&u) || !chain.iter().all(|&b| below[b]) {
-            continue;
-        }
-        let image: Vec<usize> = chain.iter().map(|&b| mirrors[b]).collect::<Option<_>>()?;
-        if !may_cover(u, &image) {
-            return None;
-        }
-        *a = Some((image, *reversed));
-        moved = true;
-    }
-    let mut taken = vec![false; mirrors.len()];
-    for &b in carried.iter().flatten().flat_map(|(c, _)| c) {
-        if std::mem::replace(&mut taken[b], true) {
-            return None;
-        }
-    }
-    moved.then_some(carried)
-}
-
-/// The bones hanging below `limbs` (reached through the bones' continuations
-/// `next_bones`), the limbs' own bones left out.
-fn bones_below(next_bones: &[Vec<usize>], limbs: &[&[usize]]) -> Vec<bool> {
-    let mut below = vec![false; next_bones.len()];
-    let mut stack: Vec<usize> = limbs.iter().flat_map(|l| l.iter().copied()).collect();
-    while let Some(b) = stack.pop() {
-        for &n in &next_bones[b] {
-            if !below[n] && !limbs.iter().any(|l| l.contains(&n)) {
-                below[n] = true;
-                stack.push(n);
-            }
-        }
-    }
-    below
 }
 
 /// A stroke set aside as a stray may be the real one: give it the chain of an assigned
@@ -477,63 +380,6 @@ fn move_to_free_chains(solver: &mut Solver, fit: &mut ChainFit) -> bool {
     improved
 }
 
-/// Move a stroke to the mirror-image limb of its chain when one shorter stroke holds part
-/// of that limb, and set that one aside: a stroke drawn on the limb that is not there takes
-/// the other side's, and a stray or a fragment takes a piece of the limb it left.
-fn take_mirror_limbs_held_in_part(solver: &mut Solver, fit: &mut ChainFit) -> bool {
-    let strokes = fit.assignment.len();
-    let mut improved = false;
-    for s in 0..strokes {
-        let Some((current, _)) = fit.assignment[s].clone() else {
-            continue;
-        };
-        let lc = solver.chain_length(&current);
-        let owner = solver.bone_owners(&fit.assignment);
-        let holders = |c: &[usize]| -> Vec<usize> {
-            let mut held: Vec<usize> = c.iter().filter_map(|&b| owner[b]).collect();
-            held.sort_unstable();
-            held.dedup();
-            held
-        };
-        let mut options: Vec<(Vec<usize>, usize)> = solver
-            .chains
-            .iter()
-            .filter(|c| c.len() == current.len() && c.iter().all(|b| !current.contains(b)))
-            .filter(|c| (solver.chain_length(c) - lc).abs() < MIRROR_LENGTH_TOLERANCE * lc)
-            .filter(|c| solver.setup.stroke_may_cover(s, c))
-            .filter_map(|c| match holders(c)[..] {
-                [t] if t != s
-                    && fit.assignment[t]
-                        .as_ref()
-                        .is_some_and(|(ct, _)| ct.len() < c.len()) =>
-                {
-                    Some((c.clone(), t))
-                }
-                _ => None,
-            })
-            .collect();
-        options.sort_by(|a, b| {
-            (solver.chain_length(&a.0) - lc)
-                .abs()
-                .total_cmp(&(solver.chain_length(&b.0) - lc).abs())
-        });
-        for (c, t) in options.into_iter().take(MIRROR_LIMBS_HELD_TRIED) {
-            let mut trial = fit.assignment.clone();
-            let reversed = better_direction(&solver.setup, &solver.fitter.pose, s, &c);
-            trial[s] = Some((c, reversed));
-            trial[t] = None;
-            if solver.accept_judged_after(trial, fit, FULL_FIT_STEPS) {
-                improved = true;
-                break;
-            }
-        }
-    }
-    improved
-}
-
-/// Mirror-image limbs held in part that are tried for a stroke.
-const MIRROR_LIMBS_HELD_TRIED: usize = 1;
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -575,64 +421,6 @@ mod tests {
                 .map(|c| (c.chain, c.reversed))
                 .collect::<Vec<_>>(),
             vec![(0, false), (0, true)]
-        );
-    }
-
-    #[test]
-    fn a_swap_of_arms_carries_the_hands_strokes_across() {
-        // Bones: 0 left arm, 1 left hand, 2 left finger; 3 right arm, 4 right hand, 5
-        // right finger; 6 the head (below neither arm).
-        let next_bones = vec![vec![1], vec![2], vec![], vec![4], vec![5], vec![], vec![]];
-        let mirrors = [Some(3), Some(4), Some(5), Some(0), Some(1), Some(2), None];
-        let left = [0usize];
-        let right = [3usize];
-        // Strokes: 0 and 1 traded between the arms; 2 on the left hand and finger; 3 on the
-        // head; 4 a stray.
-        let swapped: Vec<Assignment> = vec![
-            Some((vec![3], false)),
-            Some((vec![0], false)),
-            Some((vec![1, 2], true)),
-            Some((vec![6], false)),
-            None,
-        ];
-        let everywhere = |_: usize, _: &[usize]| true;
-        let carried = carried_across(
-            &swapped,
-            [0, 1],
-            [&left, &right],
-            &mirrors,
-            &next_bones,
-            everywhere,
-        )
-        .expect("a stroke lies below the arms");
-        assert_eq!(carried[2], Some((vec![4, 5], true)));
-        assert_eq!(carried[..2], swapped[..2]);
-        assert_eq!(carried[3..], swapped[3..]);
-        // Nothing below the arms: nothing to carry.
-        let bare = [swapped[0].clone(), swapped[1].clone(), None];
-        assert!(
-            carried_across(
-                &bare,
-                [0, 1],
-                [&left, &right],
-                &mirrors,
-                &next_bones,
-                everywhere
-            )
-            .is_none()
-        );
-        // A pinned stroke that may not go across stops the move.
-        let pinned = |u: usize, c: &[usize]| u != 2 || c.contains(&1);
-        assert!(
-            carried_across(
-                &swapped,
-                [0, 1],
-                [&left, &right],
-                &mirrors,
-                &next_bones,
-                pinned
-            )
-            .is_none()
         );
     }
 }

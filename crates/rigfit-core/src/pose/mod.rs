@@ -20,6 +20,7 @@ mod chains;
 mod fitting;
 mod local_moves;
 mod mirror_image;
+mod mirror_moves;
 mod multi_start;
 mod options;
 mod row_shift;
