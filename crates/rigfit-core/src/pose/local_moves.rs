@@ -75,6 +75,7 @@ impl Solver<'_> {
         judge_steps: usize,
     ) -> bool {
         if self.trials_left == 0 {
+            self.last_judged = f64::INFINITY;
             return false;
         }
         self.trials_left -= 1;
@@ -82,7 +83,8 @@ impl Solver<'_> {
         let layout = self.fitter.keep_unexplained_at_start(&self.setup, &trial);
         self.fitter
             .fit_arclength(&self.setup, &layout, &trial, judge_steps);
-        if self.score(&trial, &layout) < fit.score {
+        self.last_judged = self.score(&trial, &layout);
+        if self.last_judged < fit.score {
             self.fitter
                 .fit_arclength(&self.setup, &layout, &trial, FULL_FIT_STEPS);
             self.limit_tail(&layout, &trial);

@@ -108,6 +108,8 @@ pub(super) struct Solver<'a> {
     /// were ranked at: a chain step whose stray sends the pose back to its start, and the
     /// local moves at a pose no move changed, do not rank again.
     pub ranked_at: std::cell::RefCell<Option<(Pose, bool, Candidates)>>,
+    /// The score of the last trial the local moves judged, after its judging fit.
+    pub last_judged: f64,
 }
 
 impl<'a> Solver<'a> {
@@ -127,6 +129,7 @@ impl<'a> Solver<'a> {
             trials_left: MAX_LOCAL_SEARCH_TRIALS,
             by_shape: false,
             ranked_at: Default::default(),
+            last_judged: f64::INFINITY,
         }
     }
 
