@@ -94,6 +94,13 @@ pub(super) fn arclength_samples_along<I: Iterator<Item = Point3>>(
     (samples, total)
 }
 
+/// Whether two strokes of `assignment` cover one bone (of `bones`).
+pub(super) fn covers_a_bone_twice(assignment: &[Assignment], bones: usize) -> bool {
+    let mut taken = vec![false; bones];
+    (assignment.iter().flatten().flat_map(|(c, _)| c))
+        .any(|&b| std::mem::replace(&mut taken[b], true))
+}
+
 /// The arclength of stroke `s` (after resampling).
 pub(super) fn stroke_length(setup: &Setup, s: usize) -> f64 {
     setup.strokes.by_arclength[s].1

@@ -6,7 +6,7 @@
 //! start; the rig's ranges and the bend preference in the score then choose.
 
 use super::bones::BoneModel;
-use super::chains::Assignment;
+use super::chains::{Assignment, covers_a_bone_twice};
 use super::local_moves::improve;
 use super::solver::{ChainFit, Solver};
 use crate::mirror::mirror_pairs;
@@ -53,35 +53,39 @@ pub(super) fn bone_mirrors(skeleton: &Skeleton, model: &BoneModel) -> Option<Vec
     )
 }
 
-/// `assignment` with every chain replaced by its mirror image (`mirrors`: one entry per
-/// bone, [`bone_mirrors`]); a chain with a bone that has
-/// no mirror, or whose image its stroke may not cover (`may_cover(stroke, chain)`: a stroke
-/// pinned to bones), keeps its own. `None` when the image would cover a bone twice.
-fn mirrored(
+/// `assignment` with every stroke whose chain lies on the bones `below` moved to its mirror
+/// image (`mirrors`: one entry per bone, [`bone_mirrors`]); a chain with a bone that has no
+/// mirror, or whose image its stroke may not cover (`may_cover(stroke, chain)`: a stroke
+/// pinned to bones), keeps its own. `None` when no stroke moves or the image would cover a
+/// bone twice.
+pub(super) fn mirrored(
     assignment: &[Assignment],
+    below: &[bool],
     mirrors: &[Option<usize>],
     may_cover: impl Fn(usize, &[usize]) -> bool,
 ) -> Option<Vec<Assignment>> {
-    let mut taken = vec![false; mirrors.len()];
-    let mut image = Vec::with_capacity(assignment.len());
-    for (s, a) in assignment.iter().enumerate() {
-        let a = a.as_ref().map(|(chain, reversed)| {
-            let chain = chain
-                .iter()
-                .map(|&b| mirrors[b])
-                .collect::<Option<Vec<usize>>>()
-                .filter(|image| may_cover(s, image))
-                .unwrap_or_else(|| chain.clone());
-            (chain, *reversed)
-        });
-        for &b in a.iter().flat_map(|a| &a.0) {
-            if std::mem::replace(&mut taken[b], true) {
-                return None;
-            }
+    let mut turned = assignment.to_vec();
+    let mut moved = false;
+    for (u, a) in turned.iter_mut().enumerate() {
+        let Some((chain, reversed)) = a.as_ref() else {
+            continue;
+        };
+        if !chain.iter().all(|&b| below[b]) {
+            continue;
         }
-        image.push(a);
+        let Some(image) = chain
+            .iter()
+            .map(|&b| mirrors[b])
+            .collect::<Option<Vec<_>>>()
+        else {
+            continue;
+        };
+        if image != *chain && may_cover(u, &image) {
+            *a = Some((image, *reversed));
+            moved = true;
+        }
     }
-    Some(image)
+    (moved && !covers_a_bone_twice(&turned, mirrors.len())).then_some(turned)
 }
 
 impl Solver<'_> {
@@ -97,12 +101,10 @@ impl Solver<'_> {
             return best;
         };
         let may_cover = |s: usize, chain: &[usize]| self.setup.stroke_may_cover(s, chain);
-        let Some(seed) = mirrored(&best.assignment, mirrors, may_cover) else {
+        let everywhere = vec![true; mirrors.len()];
+        let Some(seed) = mirrored(&best.assignment, &everywhere, mirrors, may_cover) else {
             return best;
         };
-        if seed == best.assignment {
-            return best;
-        }
         let mut seeded: Option<ChainFit> = None;
         for start in starts {
             if self.setup.interrupt.is_set() {
@@ -170,11 +172,12 @@ mod tests {
         let right = vec![bone(&model, 4), bone(&model, 5)];
         let assignment = vec![Some((left.clone(), false)), None];
         let any = |_: usize, _: &[usize]| true;
-        let image = mirrored(&assignment, &mirrors, any).expect("an image");
+        let everywhere = vec![true; mirrors.len()];
+        let image = mirrored(&assignment, &everywhere, &mirrors, any).expect("an image");
         assert_eq!(image, vec![Some((right.clone(), false)), None]);
         // Both arms drawn: they trade places.
         let both = vec![Some((left.clone(), false)), Some((right.clone(), true))];
-        let image = mirrored(&both, &mirrors, any).expect("an image");
+        let image = mirrored(&both, &everywhere, &mirrors, any).expect("an image");
         assert_eq!(
             image,
             vec![Some((right.clone(), false)), Some((left.clone(), true))]
@@ -182,7 +185,7 @@ mod tests {
         // A stroke pinned to the left arm keeps it, and then the other stroke's image would
         // cover the left arm twice: no image.
         let pinned = |s: usize, chain: &[usize]| s != 0 || chain == left.as_slice();
-        assert_eq!(mirrored(&both, &mirrors, pinned), None);
+        assert_eq!(mirrored(&both, &everywhere, &mirrors, pinned), None);
     }
 
     #[test]

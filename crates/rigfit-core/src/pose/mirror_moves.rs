@@ -5,9 +5,10 @@
 //! stroke holding part of it. Every move is judged by the local moves' accept step.
 
 use super::bones::Bone;
-use super::chains::{Assignment, better_direction};
+use super::chains::{Assignment, better_direction, covers_a_bone_twice};
 use super::fitting::FULL_FIT_STEPS;
 use super::local_moves::MIRROR_LENGTH_TOLERANCE;
+use super::mirror_image::mirrored;
 use super::row_shift::judge_from_start;
 use super::solver::{ChainFit, Solver};
 use crate::kinematics::ForwardKinematics;
@@ -105,13 +106,7 @@ fn carried_across(
         *a = Some((image, *reversed));
         moved = true;
     }
-    let mut taken = vec![false; mirrors.len()];
-    for &b in carried.iter().flatten().flat_map(|(c, _)| c) {
-        if std::mem::replace(&mut taken[b], true) {
-            return None;
-        }
-    }
-    moved.then_some(carried)
+    (moved && !covers_a_bone_twice(&carried, mirrors.len())).then_some(carried)
 }
 
 /// The bones hanging below `limbs` (reached through the bones' continuations
@@ -215,7 +210,7 @@ pub(super) fn turn_round_at_forks(solver: &mut Solver, fit: &mut ChainFit) -> bo
         if !middle_drawn {
             continue;
         }
-        let Some(trial) = turned_round(&fit.assignment, &below, &mirrors, |u, c| {
+        let Some(trial) = mirrored(&fit.assignment, &below, &mirrors, |u, c| {
             solver.setup.stroke_may_cover(u, c)
         }) else {
             continue;
@@ -250,45 +245,6 @@ fn forks(bones: &[Bone], mirrors: &[Option<usize>]) -> Vec<usize> {
     forks.sort_unstable();
     forks.dedup();
     forks
-}
-
-/// `assignment` with every stroke whose chain lies on the bones `below` moved to its mirror
-/// image (`mirrors`; `may_cover(stroke, chain)`: a stroke pinned to bones goes only where it
-/// may). `None` when no stroke moves or an image would cover a bone twice.
-fn turned_round(
-    assignment: &[Assignment],
-    below: &[bool],
-    mirrors: &[Option<usize>],
-    may_cover: impl Fn(usize, &[usize]) -> bool,
-) -> Option<Vec<Assignment>> {
-    let mut turned = assignment.to_vec();
-    let mut moved = false;
-    for (u, a) in turned.iter_mut().enumerate() {
-        let Some((chain, reversed)) = a.as_ref() else {
-            continue;
-        };
-        if !chain.iter().all(|&b| below[b]) {
-            continue;
-        }
-        let Some(image) = chain
-            .iter()
-            .map(|&b| mirrors[b])
-            .collect::<Option<Vec<_>>>()
-        else {
-            continue;
-        };
-        if image != *chain && may_cover(u, &image) {
-            *a = Some((image, *reversed));
-            moved = true;
-        }
-    }
-    let mut taken = vec![false; mirrors.len()];
-    for &b in turned.iter().flatten().flat_map(|(c, _)| c) {
-        if std::mem::replace(&mut taken[b], true) {
-            return None;
-        }
-    }
-    moved.then_some(turned)
 }
 
 #[cfg(test)]
@@ -374,14 +330,14 @@ mod tests {
             None,
         ];
         let everywhere = |_: usize, _: &[usize]| true;
-        let turned = turned_round(&assignment, &below, &mirrors, everywhere).expect("an arm moves");
+        let turned = mirrored(&assignment, &below, &mirrors, everywhere).expect("an arm moves");
         assert_eq!(turned[0], Some((vec![2], false)));
         assert_eq!(turned[1..], assignment[1..]);
-        // Both arms drawn: they trade places.
-        let both = [Some((vec![1], false)), Some((vec![2], true))];
-        let turned = turned_round(&both, &below, &mirrors, everywhere).expect("the arms move");
-        assert_eq!(turned, vec![Some((vec![2], false)), Some((vec![1], true))]);
+        // Below the pelvis, the spine's stroke keeps its chain (its own mirror image).
+        let everything = [true; 4];
+        let turned = mirrored(&assignment, &everything, &mirrors, everywhere).expect("moves");
+        assert_eq!(turned[2], assignment[2]);
         // Nothing but the middle drawn: nothing to turn.
-        assert!(turned_round(&assignment[1..], &below, &mirrors, everywhere).is_none());
+        assert!(mirrored(&assignment[1..], &below, &mirrors, everywhere).is_none());
     }
 }
