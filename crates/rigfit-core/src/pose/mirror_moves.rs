@@ -50,23 +50,25 @@ pub(super) fn swap_mirror_limbs(solver: &mut Solver, fit: &mut ChainFit) -> bool
                 improved = true;
                 continue;
             }
-            let Some(mirrors) = solver.bone_mirrors.as_ref() else {
-                continue;
-            };
-            if solver.last_judged > SWAP_FROM_START_WITHIN * fit.score {
+            if solver.bone_mirrors.is_none()
+                || solver.last_judged > SWAP_FROM_START_WITHIN * fit.score
+            {
                 continue;
             }
-            let carried = carried_across(
-                &trial,
-                [s, t],
-                [&cs, &ct],
-                mirrors,
-                &solver.setup.model.next_bones,
-                |u, c| solver.setup.stroke_may_cover(u, c),
-            );
             if judge_from_start(solver, &trial, fit) {
                 improved = true;
-            } else if let Some(carried) = carried {
+                continue;
+            }
+            let carried = solver.bone_mirrors.as_ref().and_then(|mirrors| {
+                carried_across(
+                    &trial,
+                    [&cs, &ct],
+                    mirrors,
+                    &solver.setup.model.next_bones,
+                    |u, c| solver.setup.stroke_may_cover(u, c),
+                )
+            });
+            if let Some(carried) = carried {
                 improved |=
                     solver.accept(carried.clone(), fit) || judge_from_start(solver, &carried, fit);
             }
@@ -75,15 +77,14 @@ pub(super) fn swap_mirror_limbs(solver: &mut Solver, fit: &mut ChainFit) -> bool
     improved
 }
 
-/// `swapped` (strokes `pair` traded between the mirror-image `limbs`) with every other
-/// stroke on the bones below either limb moved to its mirror image as well (`mirrors`: one
+/// `swapped` (two strokes traded between the mirror-image `limbs`) with every stroke on the
+/// bones below either limb moved to its mirror image as well (`mirrors`: one
 /// entry per bone; `next_bones`: each bone's continuations; `may_cover(stroke, chain)`: a
 /// stroke pinned to bones goes only where it may): the hand's strokes go with the arm.
 /// `None` when no stroke lies below them, a bone has no mirror or an image would cover a
 /// bone twice.
 fn carried_across(
     swapped: &[Assignment],
-    pair: [usize; 2],
     limbs: [&[usize]; 2],
     mirrors: &[Option<usize>],
     next_bones: &[Vec<usize>],
@@ -96,7 +97,8 @@ fn carried_across(
         let Some((chain, reversed)) = a.as_ref() else {
             continue;
         };
-        if pair.contains(&u) || !chain.iter().all(|&b| below[b]) {
+        // The traded strokes lie on the limbs themselves, which are not below them.
+        if !chain.iter().all(|&b| below[b]) {
             continue;
         }
         let image: Vec<usize> = chain.iter().map(|&b| mirrors[b]).collect::<Option<_>>()?;
@@ -268,45 +270,26 @@ mod tests {
             Some((vec![6], false)),
             None,
         ];
+        let carry = |assignment: &[Assignment], may_cover: &dyn Fn(usize, &[usize]) -> bool| {
+            carried_across(
+                assignment,
+                [&left, &right],
+                &mirrors,
+                &next_bones,
+                may_cover,
+            )
+        };
         let everywhere = |_: usize, _: &[usize]| true;
-        let carried = carried_across(
-            &swapped,
-            [0, 1],
-            [&left, &right],
-            &mirrors,
-            &next_bones,
-            everywhere,
-        )
-        .expect("a stroke lies below the arms");
+        let carried = carry(&swapped, &everywhere).expect("a stroke lies below the arms");
         assert_eq!(carried[2], Some((vec![4, 5], true)));
         assert_eq!(carried[..2], swapped[..2]);
         assert_eq!(carried[3..], swapped[3..]);
         // Nothing below the arms: nothing to carry.
         let bare = [swapped[0].clone(), swapped[1].clone(), None];
-        assert!(
-            carried_across(
-                &bare,
-                [0, 1],
-                [&left, &right],
-                &mirrors,
-                &next_bones,
-                everywhere
-            )
-            .is_none()
-        );
+        assert!(carry(&bare, &everywhere).is_none());
         // A pinned stroke that may not go across stops the move.
         let pinned = |u: usize, c: &[usize]| u != 2 || c.contains(&1);
-        assert!(
-            carried_across(
-                &swapped,
-                [0, 1],
-                [&left, &right],
-                &mirrors,
-                &next_bones,
-                pinned
-            )
-            .is_none()
-        );
+        assert!(carry(&swapped, &pinned).is_none());
     }
 
     #[test]
