@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! cargo run --release -p rigfit-testkit --example pose_case -- \
-//!     --rig ID --scenario NAME --case I [--out FILE.png] [--detail yes]
+//!     --rig ID --scenario NAME --case I [--out FILE.png] [--detail yes] [--pin truth]
 //! ```
 //! Prints the case's errors and each stroke's matched bones beside the chain it was drawn
 //! along; with `--detail yes`, also each joint's turn from the start and its excess over
@@ -22,6 +22,7 @@ fn run() -> Result<(), String> {
     let mut index = 0usize;
     let mut out = std::path::PathBuf::from("pose_case.png");
     let mut detail = false;
+    let mut pin_truth = false;
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
         let value = it.next().ok_or_else(|| format!("{flag} needs a value"))?;
@@ -44,6 +45,13 @@ fn run() -> Result<(), String> {
                     _ => return Err(format!("--detail: '{value}' is not yes or no")),
                 }
             }
+            "--pin" => {
+                pin_truth = match value.as_str() {
+                    "truth" => true,
+                    "nothing" => false,
+                    _ => return Err(format!("--pin: '{value}' is not truth or nothing")),
+                }
+            }
             other => return Err(format!("unknown flag {other}")),
         }
     }
@@ -53,7 +61,10 @@ fn run() -> Result<(), String> {
         .entry(&rig_id)
         .ok_or_else(|| format!("no rig {rig_id} in the corpus"))?;
     let rig = corpus.read_rig(entry).map_err(|e| e.to_string())?;
-    let generated = generate_case(&rig, scenario, index);
+    let mut generated = generate_case(&rig, scenario, index);
+    if pin_truth {
+        pin_to_drawn_chains(rig.solver_skeleton(), &mut generated.case);
+    }
     let skeleton = &rig.rig.skeleton;
     let solved = solve_generated(&rig, &generated, &PoseOptions::default());
     let strokes = solved.strokes;
@@ -165,6 +176,24 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("pose_case: {e}");
             ExitCode::from(2)
+        }
+    }
+}
+
+/// Pins every drawn stroke to the bones of the chain it was drawn along (a bone named by
+/// the joint that turns it), so the solver scores the true assignment.
+fn pin_to_drawn_chains(
+    skeleton: &rigfit_core::Skeleton,
+    case: &mut rigfit_core::pose::sketch::Case,
+) {
+    for (stroke, chain) in case.strokes.iter_mut().zip(&case.stroke_chains) {
+        if !chain.is_empty() {
+            let names = chain
+                .iter()
+                .filter(|&&j| skeleton.children(j).iter().any(|c| chain.contains(c)))
+                .map(|&j| skeleton.joint(j).name.clone())
+                .collect();
+            stroke.bones = Some(names);
         }
     }
 }

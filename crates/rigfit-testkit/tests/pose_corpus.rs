@@ -173,6 +173,31 @@ fn a_stroke_on_the_undrawn_mirror_limb_takes_its_own_back() {
     }
 }
 
+/// Two tuning-half cases where the stray was taken by the end of a leg, its thigh swung
+/// far to reach it, while the leg's own stroke went to the undrawn other leg: a stroke on
+/// the end of a limb whose undrawn bones above turned far scores no better than a stray
+/// (`pose/score.rs`), so the leg keeps its stroke and the stray is set aside.
+#[test]
+fn a_stray_on_the_end_of_a_swung_limb_is_set_aside() {
+    let corpus = corpus();
+    for (rig, case) in [("assimp-bcn_epileptic", 12), ("dmc-humanoid_cmu", 31)] {
+        let options = SweepOptions {
+            rigs: vec![rig.to_string()],
+            scenarios: vec![Scenario::EveryChain],
+            cases: case + 1,
+            only_case: Some(case),
+            ..SweepOptions::default()
+        };
+        let outcomes = sweep(&corpus, &options, |_, _| {}).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(outcomes.len(), 1);
+        assert!(
+            outcomes[0].success(),
+            "{rig} case {case}: {:?}",
+            outcomes[0]
+        );
+    }
+}
+
 /// The whole corpus swept once for the bound tests below.
 fn whole_corpus() -> &'static [Outcome] {
     static OUTCOMES: OnceLock<Vec<Outcome>> = OnceLock::new();

@@ -24,6 +24,7 @@ mod mirror_moves;
 mod multi_start;
 mod options;
 mod row_shift;
+mod score;
 mod setup;
 pub mod sketch;
 mod solver;
