@@ -213,10 +213,10 @@ fn whole_corpus() -> &'static [Outcome] {
     })
 }
 
-// Measured on 2026-11-28 (tune / held-out), session 23, with the moves between mirror-image
-// limbs (`pose/mirror_moves.rs`): every-chain 97.2 / 100%, limbs-only 97.2 / 100%,
-// few-limbs 100 / 90.0%, flattened 8.3 / 13.3%, far 94.4 / 93.3% (36 and 30 cases); each
-// floor is two cases under it.
+// Measured on 2026-11-28 (tune / held-out), session 24, with a stray on the end of a swung
+// limb scored as a stray (`pose/score.rs`) and three hypotheses improved: every-chain 97.2 /
+// 100%, limbs-only 97.2 / 100%, few-limbs 100 / 90.0%, flattened 8.3 / 13.3%, far 97.2 /
+// 93.3% (36 and 30 cases); each floor is two cases under it.
 const TUNE_EVERY: f64 = 0.91;
 const HELD_EVERY: f64 = 0.93;
 const TUNE_LIMBS: f64 = 0.91;
@@ -225,7 +225,7 @@ const TUNE_FEW: f64 = 0.94;
 const HELD_FEW: f64 = 0.83;
 const TUNE_FLAT: f64 = 0.02;
 const HELD_FLAT: f64 = 0.06;
-const TUNE_FAR: f64 = 0.88;
+const TUNE_FAR: f64 = 0.91;
 const HELD_FAR: f64 = 0.86;
 
 /// The success rates the solver reaches today on this sample (3 cases per rig and
