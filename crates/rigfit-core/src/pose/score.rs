@@ -33,11 +33,6 @@ const HYPOTHESIS_ROOT_WEIGHT: f64 = 1e-6;
 /// Weight of a stroke's squared length mismatch with its chain (heights) in the score.
 const LENGTH_SCORE_WEIGHT: f64 = 0.05;
 
-/// A stroke's chain whose undrawn bones above it turned more than this together from the
-/// start pose (radians) is scored no better than a stray (measured on the tuning half: 0.8
-/// against 0.2, 0.4, 0.6 and 1.0; see BENCHMARKS.md, "A stray on the end of a limb").
-const FLOATING_CHAIN_TURN: f64 = 0.8;
-
 impl Solver<'_> {
     /// How well the current pose explains the strokes under `assignment`: the mean squared
     /// stroke residual (strays counted at the stray distance, more for longer strokes) plus
@@ -67,9 +62,6 @@ impl Solver<'_> {
         // half, but then a leg's stroke took the undrawn leg on the accuracy suite).
         let mean_length =
             (0..strokes).map(|s| stroke_length(setup, s)).sum::<f64>() / strokes.max(1) as f64;
-        let stray_cost =
-            |s: usize| stray * stray * stroke_length(setup, s) / mean_length.max(f64::MIN_POSITIVE);
-        let covered = covered_joints(setup, assignment);
         let data = (0..strokes)
             .map(|s| match &assignment[s] {
                 // Arclength matching stretches a chain over its stroke: a chain shorter or
@@ -77,17 +69,12 @@ impl Solver<'_> {
                 Some((chain, _)) if !chain.iter().any(|&b| bones[b].tip_translates) => {
                     let length: f64 = chain.iter().map(|&b| bones[b].length).sum();
                     let mismatch = (stroke_length(setup, s) - length) / setup.height;
-                    let cost = residuals[s].powi(2) + LENGTH_SCORE_WEIGHT * mismatch * mismatch;
-                    // A stroke on the end of a limb whose undrawn bones above swung far to
-                    // put it there explains no more than a stray does.
-                    if floating_turn(setup, pose, chain, &covered) > FLOATING_CHAIN_TURN {
-                        cost.max(stray_cost(s))
-                    } else {
-                        cost
-                    }
+                    residuals[s].powi(2) + LENGTH_SCORE_WEIGHT * mismatch * mismatch
                 }
                 Some(_) => residuals[s].powi(2),
-                None => stray_cost(s),
+                None => {
+                    stray * stray * stroke_length(setup, s) / mean_length.max(f64::MIN_POSITIVE)
+                }
             })
             .sum::<f64>()
             / strokes.max(1) as f64;
@@ -100,7 +87,7 @@ impl Solver<'_> {
         // for over spreading a bend across many, and a limb drawn far may bend far (squared,
         // raising one leg to the side cost a small rig more than setting the leg's stroke
         // aside; BENCHMARKS.md).
-        let on_chain = covered;
+        let covered = covered_joints(setup, assignment);
         // And the one the rig's joints can take: limits (from the rig's clips or a joints
         // file) never hold a limb back in the fit, they choose among explanations. Both are
         // means over the joints that move.
@@ -111,7 +98,7 @@ impl Solver<'_> {
             let joint = setup.skeleton.joint(j);
             let rotation = &pose.local[j].rotation;
             let angle = (setup.start.local[j].rotation.inverse() * rotation).angle();
-            let factor = if on_chain[j] {
+            let factor = if covered[j] {
                 1.0
             } else {
                 ABOVE_CHAIN_BEND_FACTOR
@@ -148,92 +135,4 @@ fn covered_joints(setup: &Setup, assignment: &[Assignment]) -> Vec<bool> {
             .for_each(|&b| covered[setup.model.bones[b].joint] = true);
     }
     covered
-}
-
-/// How far (radians, summed) the bones above `chain` that no stroke covers turned from the
-/// start pose at `pose`, when the chain starts inside a limb: its first joint and every one
-/// counted above it have one child, up to a fork, a covered joint or the root. A stray
-/// taken by the end of a limb (a shin, its thigh swung far to reach it, while the leg's own
-/// stroke went to the undrawn other leg) turns them; a whole limb's stroke starts at a fork.
-fn floating_turn(setup: &Setup, pose: &Pose, chain: &[usize], covered: &[bool]) -> f64 {
-    let skeleton = setup.skeleton;
-    let bones = &setup.model.bones;
-    let in_chain = |j: usize| chain.iter().any(|&b| bones[b].joint == j);
-    let Some(top) = chain
-        .iter()
-        .map(|&b| bones[b].joint)
-        .find(|&j| skeleton.joint(j).parent.is_none_or(|p| !in_chain(p)))
-    else {
-        return 0.0;
-    };
-    if skeleton.children(top).len() != 1 {
-        return 0.0;
-    }
-    let mut turned = 0.0;
-    let mut above = skeleton.joint(top).parent;
-    while let Some(j) =
-        above.filter(|&j| !covered[j] && skeleton.children(j).len() == 1 && Some(j) != setup.root)
-    {
-        turned += (setup.start.local[j].rotation.inverse() * pose.local[j].rotation).angle();
-        above = skeleton.joint(j).parent;
-    }
-    turned
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::interrupt::Interrupt;
-    use crate::math::{Point3, Quat, Vector3};
-    use crate::pose::{PoseOptions, PoseProblem};
-    use crate::strokes::Stroke;
-
-    #[test]
-    fn a_shin_whose_undrawn_thigh_swung_floats_and_a_whole_leg_does_not() {
-        let rig = crate::humanoid::humanoid();
-        let skeleton = &rig.skeleton;
-        let strokes = [Stroke {
-            points: vec![Point3::new(0.1, 0.9, 0.0), Point3::new(0.1, 0.1, 0.0)],
-            bones: None,
-        }];
-        let problem = PoseProblem {
-            skeleton,
-            start: &rig.pose,
-            strokes: &strokes,
-            movable: None,
-            height: rig.height(),
-        };
-        let (options, interrupt) = (PoseOptions::default(), Interrupt::never());
-        let setup = Setup::new(&problem, &options, &interrupt).expect("a valid problem");
-        let joint = |name: &str| skeleton.find(name).expect("built-in joint");
-        let bone_of = |name: &str| {
-            let j = joint(name);
-            (setup.model.bones.iter())
-                .position(|b| b.joint == j)
-                .expect("the joint turns a bone")
-        };
-        let (thigh, shin) = (bone_of("LeftUpLeg"), bone_of("LeftLeg"));
-        // The thigh swung 90 degrees forward.
-        let mut pose = rig.pose.clone();
-        let hip = joint("LeftUpLeg");
-        let swing = Quat::from_axis_angle(&Vector3::x_axis(), std::f64::consts::FRAC_PI_2);
-        pose.local[hip].rotation = swing * pose.local[hip].rotation;
-        let nothing_covered = vec![false; skeleton.len()];
-        let turn = floating_turn(&setup, &pose, &[shin], &nothing_covered);
-        assert!((turn - std::f64::consts::FRAC_PI_2).abs() < 1e-9, "{turn}");
-        // The whole leg starts at the hips (the root): nothing above it floats.
-        assert_eq!(
-            floating_turn(&setup, &pose, &[thigh, shin], &nothing_covered),
-            0.0
-        );
-        // A thigh some stroke covers holds the shin.
-        let mut thigh_covered = nothing_covered.clone();
-        thigh_covered[hip] = true;
-        assert_eq!(floating_turn(&setup, &pose, &[shin], &thigh_covered), 0.0);
-        // At the start pose the shin floats by nothing.
-        assert_eq!(
-            floating_turn(&setup, &rig.pose, &[shin], &nothing_covered),
-            0.0
-        );
-    }
 }
