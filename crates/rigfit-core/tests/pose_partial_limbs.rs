@@ -7,8 +7,8 @@ use rigfit_core::humanoid::humanoid;
 use rigfit_core::pose::{PoseOptions, PoseProblem, solve_pose};
 use rigfit_core::{Point3, Pose, Quat, Stroke, Vector3};
 
-/// The built-in humanoid with its arms turned down and forward and its elbows bent: the
-/// pose whose forearms the strokes are drawn along.
+/// The built-in humanoid with its arms turned down and its elbows bent: the pose whose
+/// forearms the strokes are drawn along.
 fn target() -> (rigfit_core::Rig, Pose) {
     let rig = humanoid();
     let mut pose = rig.pose.clone();

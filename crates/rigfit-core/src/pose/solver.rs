@@ -38,8 +38,8 @@ const MAX_CHAIN_BONES: usize = 24;
 const MAX_LOCAL_SEARCH_TRIALS: usize = 1_000;
 
 /// Hypotheses (of the best-explained ones) that the local moves improve (measured on the
-/// tuning half: 3 against 2 gained 12 cases and lost 1 at about 12% more time, 4 gained no
-/// more; BENCHMARKS.md).
+/// tuning half over every scenario: 3 against 2 gained 13 cases and lost 3, at about a
+/// tenth more time; 4 gained no more; BENCHMARKS.md).
 const IMPROVED_HYPOTHESES: usize = 3;
 
 /// A fit from the character where it stands is convincing (the rigid placements and turns
