@@ -14,7 +14,7 @@ use std::process::ExitCode;
 use rigfit_core::pose::PoseOptions;
 use rigfit_render::{RenderOptions, Scene, chain_colors, render_side_by_side, stroke_colors};
 use rigfit_testkit::sweep::solve_generated;
-use rigfit_testkit::{Corpus, Scenario, generate_case};
+use rigfit_testkit::{Corpus, Scenario, generate_case, pinned_to_drawn_chains};
 
 fn run() -> Result<(), String> {
     let mut rig_id = None;
@@ -63,7 +63,7 @@ fn run() -> Result<(), String> {
     let rig = corpus.read_rig(entry).map_err(|e| e.to_string())?;
     let mut generated = generate_case(&rig, scenario, index);
     if pin_truth {
-        pin_to_drawn_chains(rig.solver_skeleton(), &mut generated.case);
+        generated.case.strokes = pinned_to_drawn_chains(rig.solver_skeleton(), &generated.case);
     }
     let skeleton = &rig.rig.skeleton;
     let solved = solve_generated(&rig, &generated, &PoseOptions::default());
@@ -176,24 +176,6 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("pose_case: {e}");
             ExitCode::from(2)
-        }
-    }
-}
-
-/// Pins every drawn stroke to the bones of the chain it was drawn along (a bone named by
-/// the joint that turns it), so the solver scores the true assignment.
-fn pin_to_drawn_chains(
-    skeleton: &rigfit_core::Skeleton,
-    case: &mut rigfit_core::pose::sketch::Case,
-) {
-    for (stroke, chain) in case.strokes.iter_mut().zip(&case.stroke_chains) {
-        if !chain.is_empty() {
-            let names = chain
-                .iter()
-                .filter(|&&j| skeleton.children(j).iter().any(|c| chain.contains(c)))
-                .map(|&j| skeleton.joint(j).name.clone())
-                .collect();
-            stroke.bones = Some(names);
         }
     }
 }

@@ -41,6 +41,6 @@ pub mod track_suites;
 pub use corpus::{Corpus, CorpusError, CorpusRig, Half, RigEntry, RigKind, StartPose};
 pub use scenario::{GeneratedCase, Scenario, TargetKind, case_seed, generate_case};
 pub use sweep::{
-    Outcome, SUCCESS_MAX_ERROR, SUCCESS_MEAN_ERROR, SweepOptions, pinned_to_markers, solve_case,
-    sweep,
+    Outcome, SUCCESS_MAX_ERROR, SUCCESS_MEAN_ERROR, SweepOptions, pinned_to_drawn_chains,
+    pinned_to_markers, solve_case, sweep,
 };

@@ -223,6 +223,30 @@ pub fn pinned_to_markers(
     skeleton: &rigfit_core::Skeleton,
     case: &rigfit_core::pose::sketch::Case,
 ) -> Vec<rigfit_core::Stroke> {
+    pinned_to_joints(skeleton, case, |chain, j| {
+        skeleton.joint(j).parent.is_some_and(|p| chain.contains(&p))
+    })
+}
+
+/// Every drawn stroke pinned to the bones of the chain it was drawn along, each named by
+/// the joint that turns it (every joint of the chain with a child on it): the solver then
+/// scores the true assignment (`pose_case --pin truth`). Strays stay unpinned.
+pub fn pinned_to_drawn_chains(
+    skeleton: &rigfit_core::Skeleton,
+    case: &rigfit_core::pose::sketch::Case,
+) -> Vec<rigfit_core::Stroke> {
+    pinned_to_joints(skeleton, case, |chain, j| {
+        skeleton.children(j).iter().any(|c| chain.contains(c))
+    })
+}
+
+/// `case`'s strokes, each drawn one pinned to the joints `j` of its chain for which
+/// `keep(chain, j)` holds.
+fn pinned_to_joints(
+    skeleton: &rigfit_core::Skeleton,
+    case: &rigfit_core::pose::sketch::Case,
+    keep: impl Fn(&[usize], usize) -> bool,
+) -> Vec<rigfit_core::Stroke> {
     case.strokes
         .iter()
         .zip(&case.stroke_chains)
@@ -231,7 +255,7 @@ pub fn pinned_to_markers(
             if !chain.is_empty() {
                 let names = chain
                     .iter()
-                    .filter(|&&j| skeleton.joint(j).parent.is_some_and(|p| chain.contains(&p)))
+                    .filter(|&&j| keep(chain, j))
                     .map(|&j| skeleton.joint(j).name.clone())
                     .collect();
                 pinned.bones = Some(names);
