@@ -48,11 +48,12 @@ pub(super) struct Fitter {
 const INITIAL_DAMPING: f64 = 1e-3;
 
 impl Fitter {
-    /// Starts fitting a new hypothesis from `pose`, with the first step's damping (so
-    /// that a hypothesis is fitted alike whichever was fitted before it).
-    pub fn restart_from(&mut self, pose: Pose) {
-        self.pose = pose;
-        self.lambda = INITIAL_DAMPING;
+    /// Goes on where `other`, a fitter of the same solve run elsewhere, stopped: its pose
+    /// and damping, its steps counted too.
+    pub fn continue_after(&mut self, other: &Fitter) {
+        self.pose.clone_from(&other.pose);
+        self.lambda = other.lambda;
+        self.iterations += other.iterations;
     }
 
     pub fn new(pose: Pose, prior_weight: f64) -> Self {

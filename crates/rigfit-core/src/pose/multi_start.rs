@@ -10,6 +10,7 @@ use crate::geometry::centroid;
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Matrix4, Quat, Trs, Vector3};
 use crate::skeleton::Pose;
+use rayon::prelude::*;
 
 /// Headings tried about each candidate vertical axis.
 const HEADINGS: usize = 4;
@@ -50,15 +51,19 @@ fn rigid_placements(thin: &Setup, root: usize) -> Vec<Pose> {
         .map(|p| *start_fk.world(p))
         .unwrap_or_else(Matrix4::identity);
     let parent_inverse = parent.try_inverse().unwrap_or_else(Matrix4::identity);
-    let turns = (0..HEADINGS).flat_map(|heading| {
-        let angle = heading as f64 * std::f64::consts::TAU / HEADINGS as f64;
-        let about_y = Quat::from_axis_angle(&Vector3::y_axis(), angle);
-        let about_z = Quat::from_axis_angle(&Vector3::z_axis(), angle);
-        // Heading 0 is the same turn about either axis.
-        std::iter::once(about_y).chain((heading > 0).then_some(about_z))
-    });
+    let turns: Vec<Quat> = (0..HEADINGS)
+        .flat_map(|heading| {
+            let angle = heading as f64 * std::f64::consts::TAU / HEADINGS as f64;
+            let about_y = Quat::from_axis_angle(&Vector3::y_axis(), angle);
+            let about_z = Quat::from_axis_angle(&Vector3::z_axis(), angle);
+            // Heading 0 is the same turn about either axis.
+            std::iter::once(about_y).chain((heading > 0).then_some(about_z))
+        })
+        .collect();
+    // Each heading is fitted on its own: in parallel, with the same results.
     let mut found: Vec<(f64, Pose)> = turns
-        .map(|turn| {
+        .par_iter()
+        .map(|&turn| {
             // Turn about the vertical through the model's centre, then move onto the strokes.
             let turn = Trs::new(Vector3::zeros(), turn).to_matrix();
             let world_root = Matrix4::new_translation(&(data_centre - model_centre))

@@ -70,6 +70,7 @@ fn ranges_of(stroke_of: &[usize], strokes: usize) -> Vec<Range<usize>> {
 }
 
 /// What a solve works on and never changes.
+#[derive(Clone)]
 pub(super) struct Setup<'a> {
     pub skeleton: &'a Skeleton,
     pub start: &'a Pose,

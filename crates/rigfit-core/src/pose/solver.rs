@@ -1,7 +1,9 @@
 //! One solve from start to end: the rigid multi-start gives hypotheses; the chain step fits
 //! each (assign chains, fit by arclength, set strays aside, re-assign until stable); local
 //! moves improve the best; a restricted softassign polishes the winner. Without the chain
-//! step, the paper's annealing over all bones.
+//! step, the paper's annealing over all bones. The hypotheses are fitted, and the best
+//! improved, in parallel (rayon), each by a worker of its own ([`Solver::worker`]): the
+//! results do not depend on the number of threads.
 
 use super::annealing::{anneal, bones_by_weight, energy, schedule, settle};
 use super::assignment::assign;
@@ -16,6 +18,7 @@ use super::setup::Setup;
 use super::{PoseError, PoseResult};
 use crate::kinematics::DofLayout;
 use crate::skeleton::Pose;
+use rayon::prelude::*;
 
 /// The whole character is placed on the strokes (rigid multi-start) only when they are at
 /// least this long against its bones together (measured on the tuning half: 0.3 against 0,
@@ -34,7 +37,8 @@ const MAX_CHAIN_BONES: usize = 24;
 
 /// The most trial assignments the local moves fit in one solve (the real rigs of the
 /// accuracy suite use at most about 110; a thousand cluttered strokes would use tens of
-/// thousands).
+/// thousands): shared evenly by the hypotheses improved, what they leave to the mirror
+/// image.
 const MAX_LOCAL_SEARCH_TRIALS: usize = 1_000;
 
 /// Hypotheses (of the best-explained ones) that the local moves improve (measured on the
@@ -182,13 +186,30 @@ impl<'a> Solver<'a> {
         // Hypotheses that converged to the same assignment are one.
         fits.dedup_by(|a, b| a.assignment == b.assignment);
         let cutoff = fits.first().map_or(0.0, |f| 2.0 * f.score);
-        let mut best: Option<ChainFit> = None;
-        for fit in fits
+        // The best-explained hypotheses are improved in parallel, each by its own fitter
+        // (from the first step's damping) with an even share of the trials left.
+        let kept: Vec<ChainFit> = fits
             .into_iter()
             .filter(|f| f.score <= cutoff)
             .take(IMPROVED_HYPOTHESES)
-        {
-            let fit = improve(&mut self, fit);
+            .collect();
+        let share = self.trials_left / kept.len().max(1);
+        let workers: Vec<(ChainFit, Solver)> = kept
+            .into_iter()
+            .map(|fit| {
+                let mut worker = self.worker(fit.pose.clone(), fit.by_shape);
+                worker.trials_left = share;
+                (fit, worker)
+            })
+            .collect();
+        let improved: Vec<(ChainFit, Solver)> = workers
+            .into_par_iter()
+            .map(|(fit, mut worker)| (improve(&mut worker, fit), worker))
+            .collect();
+        let mut best: Option<ChainFit> = None;
+        for (fit, worker) in improved {
+            self.trials_left -= share - worker.trials_left;
+            self.fitter.iterations += worker.fitter.iterations;
             if best.as_ref().is_none_or(|b| fit.score < b.score) {
                 best = Some(fit);
             }
@@ -251,7 +272,9 @@ impl<'a> Solver<'a> {
         Ok(self.result(stroke_bones, &matches))
     }
 
-    /// Fits every start in every matching mode through the chain step into `fits`.
+    /// Fits every start in every matching mode through the chain step into `fits`, in that
+    /// order. Each hypothesis is fitted from its start alone (its own fitter, with the first
+    /// step's damping), so they run in parallel with the same results as one after another.
     fn fit_hypotheses(
         &mut self,
         starts: &[Pose],
@@ -260,18 +283,48 @@ impl<'a> Solver<'a> {
         sigmas: &[f64],
         fits: &mut Vec<ChainFit>,
     ) {
-        for start in starts {
-            for &by_shape in modes {
-                if self.setup.interrupt.is_set() {
-                    return;
+        let jobs: Vec<(&Pose, bool)> = starts
+            .iter()
+            .flat_map(|start| modes.iter().map(move |&by_shape| (start, by_shape)))
+            .collect();
+        let workers: Vec<Solver> = jobs
+            .iter()
+            .map(|&(start, by_shape)| self.worker(start.clone(), by_shape))
+            .collect();
+        let fitted: Vec<Option<(ChainFit, Fitter)>> = workers
+            .into_par_iter()
+            .map(|mut worker| {
+                if worker.setup.interrupt.is_set() {
+                    return None;
                 }
-                self.fitter.restart_from(start.clone());
-                self.by_shape = by_shape;
-                if self.setup.options.anneal_before_chains {
-                    anneal(&self.setup, &mut self.fitter, all, sigmas, None);
+                if worker.setup.options.anneal_before_chains {
+                    anneal(&worker.setup, &mut worker.fitter, all, sigmas, None);
                 }
-                fits.push(self.chain_step(None));
-            }
+                let fit = worker.chain_step(None);
+                Some((fit, worker.fitter))
+            })
+            .collect();
+        for (fit, fitter) in fitted.into_iter().flatten() {
+            // The solve goes on from the last hypothesis's fitter state (its damping), as
+            // it would after fitting them one after another.
+            self.fitter.continue_after(&fitter);
+            self.by_shape = fit.by_shape;
+            fits.push(fit);
+        }
+    }
+
+    /// A solver of the same setup fitting from `start` on its own (for work run in
+    /// parallel): a fresh fitter, no trials, nothing ranked yet.
+    fn worker(&self, start: Pose, by_shape: bool) -> Solver<'a> {
+        Solver {
+            setup: self.setup.clone(),
+            fitter: Fitter::new(start, self.fitter.prior_weight),
+            chains: self.chains.clone(),
+            trials_left: 0,
+            by_shape,
+            bone_mirrors: self.bone_mirrors.clone(),
+            ranked_at: Default::default(),
+            last_judged: f64::INFINITY,
         }
     }
 
