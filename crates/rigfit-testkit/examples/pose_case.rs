@@ -3,11 +3,15 @@
 //!
 //! ```text
 //! cargo run --release -p rigfit-testkit --example pose_case -- \
-//!     --rig ID --scenario NAME --case I [--out FILE.png] [--detail yes] [--pin truth]
+//!     --rig ID --scenario NAME --case I [--out FILE.png] [--detail yes] [--pin truth] \
+//!     [--start truth]
 //! ```
 //! Prints the case's errors and each stroke's matched bones beside the chain it was drawn
 //! along; with `--detail yes`, also each joint's turn from the start and its excess over
-//! its limits (degrees) in the truth and in the answer.
+//! its limits (degrees) in the truth and in the answer. Two ways to tell a failure of the
+//! search from one of the score: `--pin truth` pins every stroke to the chain it was drawn
+//! along; `--start truth` offers the true pose as one more start (a search failure then
+//! succeeds).
 
 use std::process::ExitCode;
 
@@ -16,6 +20,15 @@ use rigfit_render::{RenderOptions, Scene, chain_colors, render_side_by_side, str
 use rigfit_testkit::sweep::solve_generated;
 use rigfit_testkit::{Corpus, Scenario, generate_case, pinned_to_drawn_chains};
 
+/// A flag's value that is `truth` (true) or `nothing` (false).
+fn truth_or_nothing(flag: &str, value: &str) -> Result<bool, String> {
+    match value {
+        "truth" => Ok(true),
+        "nothing" => Ok(false),
+        _ => Err(format!("{flag}: '{value}' is not truth or nothing")),
+    }
+}
+
 fn run() -> Result<(), String> {
     let mut rig_id = None;
     let mut scenario = Scenario::EveryChain;
@@ -23,6 +36,7 @@ fn run() -> Result<(), String> {
     let mut out = std::path::PathBuf::from("pose_case.png");
     let mut detail = false;
     let mut pin_truth = false;
+    let mut start_truth = false;
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
         let value = it.next().ok_or_else(|| format!("{flag} needs a value"))?;
@@ -45,13 +59,8 @@ fn run() -> Result<(), String> {
                     _ => return Err(format!("--detail: '{value}' is not yes or no")),
                 }
             }
-            "--pin" => {
-                pin_truth = match value.as_str() {
-                    "truth" => true,
-                    "nothing" => false,
-                    _ => return Err(format!("--pin: '{value}' is not truth or nothing")),
-                }
-            }
+            "--pin" => pin_truth = truth_or_nothing(&flag, &value)?,
+            "--start" => start_truth = truth_or_nothing(&flag, &value)?,
             other => return Err(format!("unknown flag {other}")),
         }
     }
@@ -66,7 +75,11 @@ fn run() -> Result<(), String> {
         generated.case.strokes = pinned_to_drawn_chains(rig.solver_skeleton(), &generated.case);
     }
     let skeleton = &rig.rig.skeleton;
-    let solved = solve_generated(&rig, &generated, &PoseOptions::default());
+    let mut options = PoseOptions::default();
+    if start_truth {
+        options.extra_starts = vec![generated.truth.clone()];
+    }
+    let solved = solve_generated(&rig, &generated, &options);
     let strokes = solved.strokes;
     let result = solved.result.map_err(|e| e.to_string())?;
     let errors = generated.errors(&rig, &result.pose);
