@@ -69,8 +69,7 @@ fn ranges_of(stroke_of: &[usize], strokes: usize) -> Vec<Range<usize>> {
         .collect()
 }
 
-/// What a solve works on and never changes.
-#[derive(Clone)]
+/// What a solve works on and never changes (shared by a solve's parallel workers).
 pub(super) struct Setup<'a> {
     pub skeleton: &'a Skeleton,
     pub start: &'a Pose,

@@ -19,6 +19,7 @@ use super::{PoseError, PoseResult};
 use crate::kinematics::DofLayout;
 use crate::skeleton::Pose;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// The whole character is placed on the strokes (rigid multi-start) only when they are at
 /// least this long against its bones together (measured on the tuning half: 0.3 against 0,
@@ -74,10 +75,10 @@ pub(super) struct ChainFit {
 
 /// A solve in progress.
 pub(super) struct Solver<'a> {
-    pub setup: Setup<'a>,
+    pub setup: Arc<Setup<'a>>,
     pub fitter: Fitter,
     /// Every chain of bones a stroke may cover.
-    pub chains: Vec<Vec<usize>>,
+    pub chains: Arc<Vec<Vec<usize>>>,
     /// Trial assignments the local moves may still fit (bounds their cost on many strokes).
     pub trials_left: usize,
     /// Strokes are matched to chains by shape (or by distance at the current pose).
@@ -104,9 +105,9 @@ impl<'a> Solver<'a> {
         let bone_mirrors = bone_mirrors(setup.skeleton, &setup.model);
         Self {
             bone_mirrors,
-            setup,
+            setup: Arc::new(setup),
             fitter,
-            chains,
+            chains: Arc::new(chains),
             trials_left: MAX_LOCAL_SEARCH_TRIALS,
             by_shape: false,
             ranked_at: Default::default(),
@@ -313,13 +314,13 @@ impl<'a> Solver<'a> {
         }
     }
 
-    /// A solver of the same setup fitting from `start` on its own (for work run in
-    /// parallel): a fresh fitter, no trials, nothing ranked yet.
+    /// A solver of the same setup and chains (shared, not copied) fitting from `start` on
+    /// its own (for work run in parallel): a fresh fitter, no trials, nothing ranked yet.
     fn worker(&self, start: Pose, by_shape: bool) -> Solver<'a> {
         Solver {
-            setup: self.setup.clone(),
+            setup: Arc::clone(&self.setup),
             fitter: Fitter::new(start, self.fitter.prior_weight),
-            chains: self.chains.clone(),
+            chains: Arc::clone(&self.chains),
             trials_left: 0,
             by_shape,
             bone_mirrors: self.bone_mirrors.clone(),
