@@ -284,13 +284,10 @@ impl<'a> Solver<'a> {
         sigmas: &[f64],
         fits: &mut Vec<ChainFit>,
     ) {
-        let jobs: Vec<(&Pose, bool)> = starts
+        let workers: Vec<Solver> = starts
             .iter()
             .flat_map(|start| modes.iter().map(move |&by_shape| (start, by_shape)))
-            .collect();
-        let workers: Vec<Solver> = jobs
-            .iter()
-            .map(|&(start, by_shape)| self.worker(start.clone(), by_shape))
+            .map(|(start, by_shape)| self.worker(start.clone(), by_shape))
             .collect();
         let fitted: Vec<Option<(ChainFit, Fitter)>> = workers
             .into_par_iter()
