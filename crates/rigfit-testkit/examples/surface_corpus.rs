@@ -14,10 +14,11 @@
 //! `FAST`, `COARSE_STIFFNESS`, `ANCHOR`, `STIFFNESS`, `CONTACT_WIDTH`, `PART_GAP` set those
 //! options; `NO_PIECE_TREE=1` without the pieces' tree, `TREE_POINTS`, `TREE_STRIDE`,
 //! `TREE_STEPS`, `TREE_FINAL`, `TREE_SIGMA` its model points, data stride, annealing steps,
-//! iterations at the floor and first kernel; `VERBOSE=1` every frame's mean and worst vertex
-//! and the truth's steps, `VERBOSE=2` also each piece's mean in the worst frame; `PLOT=DIR`
-//! writes DIR/surface_parts_frames.png, each object's mean per frame, `_paper` with
-//! `PAPER=1`)
+//! iterations at the floor and first kernel, `TREE_SECOND=1.0` the tree tracked from a
+//! second prediction too and `TREE_CHOICE` the width choosing between the two; `VERBOSE=1`
+//! every frame's mean and worst vertex and the truth's steps, `VERBOSE=2` also each piece's
+//! mean in the worst frame; `PLOT=DIR` writes DIR/surface_parts_frames.png, each object's
+//! mean per frame, `_paper` with `PAPER=1`)
 
 #[path = "common/env_knobs.rs"]
 mod env_knobs;
@@ -69,6 +70,10 @@ fn main() {
         env_knobs::set_count("TREE_STEPS", &mut tree.track.anneal_steps);
         env_knobs::set_count("TREE_FINAL", &mut tree.track.final_em_iterations);
         env_knobs::set("TREE_SIGMA", &mut tree.initial_sigma);
+        env_knobs::set("TREE_CHOICE", &mut tree.choice_sigma);
+        if let Ok(v) = std::env::var("TREE_SECOND") {
+            tree.second_prediction = v.parse().ok();
+        }
     }
     if std::env::var("NO_PIECE_TREE").is_ok() {
         options.piece_tree = None;

@@ -162,6 +162,16 @@ pub struct PieceTreeOptions {
     /// tree's motion: most of the motion is taken up, so the kernel starts narrower than
     /// `SurfaceOptions::initial_sigma`.
     pub initial_sigma: f64,
+    /// The tree is also tracked, in parallel, from its last motion continued by this share
+    /// (the first start continues it by `track.prediction`): a limb speeding up or keeping
+    /// its pace is found from one, one slowing down from the other. The fit that explains
+    /// more of the frame is kept. `None` (the default): one start. `Some(1.0)` helps the
+    /// many-part corpus's tuning half and the count within the bar on both halves, but
+    /// not every held-out object, and once threw a limb of the held-out humanoid half a
+    /// diagonal away (BENCHMARKS.md, issue 22, session 26).
+    pub second_prediction: Option<f64>,
+    /// The width (fraction of the height) of the E-step that chooses between the two fits.
+    pub choice_sigma: f64,
 }
 
 impl Default for PieceTreeOptions {
@@ -175,6 +185,8 @@ impl Default for PieceTreeOptions {
             model_points: 1500,
             data_stride: 4,
             initial_sigma: 0.015,
+            second_prediction: None,
+            choice_sigma: 0.02,
         }
     }
 }

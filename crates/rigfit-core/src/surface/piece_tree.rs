@@ -24,6 +24,9 @@ use crate::track::{ArticulatedModel, Tracker};
 /// bodies span 0.99 of it, the corpus's robot and creature parts at most 0.66).
 const SKIN_SPAN: f64 = 0.75;
 
+/// The data points (evenly strided) on which the fits from the two predictions are compared.
+const CHOICE_POINTS: usize = 500;
+
 /// A rigid motion `x -> rotation * x + translation`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RigidMotion {
@@ -67,6 +70,10 @@ pub struct PieceTree {
     rest_at: Vec<Vector3>,
     /// The tree's pose synced to the last frame's surface fit ([`PieceTree::sync`]).
     synced: Option<crate::skeleton::Pose>,
+    /// The second start's share of the last motion continued, and the choice's width
+    /// ([`PieceTreeOptions::second_prediction`]).
+    second_prediction: Option<f64>,
+    choice_sigma: f64,
 }
 
 impl PieceTree {
@@ -198,6 +205,8 @@ impl PieceTree {
             data_stride: options.data_stride.max(1),
             rest_at: world_at,
             synced: None,
+            second_prediction: options.second_prediction,
+            choice_sigma: options.choice_sigma,
         })
     }
 
@@ -216,7 +225,39 @@ impl PieceTree {
         } else {
             points
         };
-        let fit = self.tracker.track(points).ok()?;
+        let fit = match self.second_prediction {
+            None => self.tracker.track(points).ok()?,
+            Some(second) => {
+                // The same frame from two predictions, in parallel (each fit is serial).
+                let first = self.tracker.options.prediction;
+                let mut other = self.tracker.clone();
+                other.options.prediction = second;
+                let tracker = &mut self.tracker;
+                let (fit, other_fit) =
+                    rayon::join(|| tracker.track(points), || other.track(points));
+                let stride = points.len().div_ceil(CHOICE_POINTS).max(1);
+                let sample: Vec<Point3> = points.iter().step_by(stride).copied().collect();
+                let sigma = self.choice_sigma * self.tracker.model().height;
+                let explained = |t: &mut Tracker, ok: bool| {
+                    if ok {
+                        t.explained_share(&sample, sigma)
+                    } else {
+                        f64::NEG_INFINITY
+                    }
+                };
+                let (share, other_share) = (
+                    explained(&mut self.tracker, fit.is_ok()),
+                    explained(&mut other, other_fit.is_ok()),
+                );
+                if other_share > share {
+                    other.options.prediction = first;
+                    self.tracker = other;
+                    other_fit.ok()?
+                } else {
+                    fit.ok()?
+                }
+            }
+        };
         let world = self.tracker.model().skeleton.world_matrices(&fit.pose);
         let now: Vec<RigidMotion> = self
             .piece_joint
@@ -463,6 +504,40 @@ mod tests {
         assert!(
             with_tree.iter().all(|&e| e < 0.015),
             "with the tree: {with_tree:?}"
+        );
+    }
+
+    #[test]
+    fn an_arm_keeping_its_pace_is_followed_closer_from_two_predictions() {
+        let (mesh, body) = body_and_arm();
+        let diagonal = mesh.bounds().expect("bounds").diagonal();
+        let run = |second: Option<f64>| {
+            let mut options = SurfaceOptions::default();
+            if let Some(tree) = options.piece_tree.as_mut() {
+                tree.second_prediction = second;
+            }
+            let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+            let mut tracker = SurfaceTracker::new(&mesh, &options).expect("tracker");
+            [0.0, 15.0, 60.0, 105.0, 150.0_f64]
+                .iter()
+                .map(|angle| {
+                    let truth = arm_turned(&mesh, body, angle.to_radians());
+                    let cloud = scan(&truth, &mesh.triangles, 4000, 0.003, 0.1, &mut rng);
+                    let fit = tracker
+                        .track(&Observations::from_mesh(&cloud).expect("frame"))
+                        .expect("track");
+                    mean_distance(&fit.positions, &truth) / diagonal
+                })
+                .collect::<Vec<f64>>()
+        };
+        // 45 degrees a scan after the first: the arm's tip moves a quarter of the diagonal.
+        let one = run(None);
+        let two = run(Some(1.0));
+        let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len() as f64;
+        assert!(two.iter().all(|&e| e < 0.01), "two starts: {two:?}");
+        assert!(
+            mean(&two) < 0.9 * mean(&one),
+            "two starts {two:?} against one {one:?}"
         );
     }
 }

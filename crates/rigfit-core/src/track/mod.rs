@@ -101,7 +101,7 @@ pub struct FrameFit {
 #[derive(Clone, Debug)]
 pub struct Tracker {
     model: ArticulatedModel,
-    options: TrackOptions,
+    pub(crate) options: TrackOptions,
     layout: DofLayout,
     pose: Pose,
     previous: Option<Pose>,
