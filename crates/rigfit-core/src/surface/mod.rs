@@ -167,8 +167,8 @@ pub struct PieceTreeOptions {
     /// its pace is found from one, one slowing down from the other. The fit that explains
     /// more of the frame is kept. `None` (the default): one start. `Some(1.0)` helps the
     /// many-part corpus's tuning half and the count within the bar on both halves, but
-    /// not every held-out object, and once threw a limb of the held-out humanoid half a
-    /// diagonal away (BENCHMARKS.md, issue 22, session 26).
+    /// four of the six held-out objects lose on average (one held-out humanoid sequence:
+    /// mean 3.5% -> 4.6% of the diagonal; BENCHMARKS.md, issue 22, session 26).
     pub second_prediction: Option<f64>,
     /// The width (fraction of the height) of the E-step that chooses between the two fits.
     pub choice_sigma: f64,
