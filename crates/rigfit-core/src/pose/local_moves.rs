@@ -1,18 +1,21 @@
 //! Local moves on a fitted hypothesis: the moves between mirror-image limbs
-//! ([`swap_mirror_limbs`], [`turn_round_at_forks`], [`take_mirror_limbs_held_in_part`]),
-//! trade a stray for an assigned stroke, give a stray the free limbs most like it
-//! ([`limb_picks`]), give a stroke another close chain (the strokes that lose bones pick
-//! again), move a stroke to a free chain of about its length, shift a run of strokes along
-//! a row of alike limbs ([`shift_along_rows`]), and turn the joint a row fans out of with
-//! the row's strokes placed anew ([`turn_row_joints`]). Every move is judged by one accept
-//! step ([`Solver::accept`]): a quick fit, then a full one when it explains the strokes
-//! better.
+//! ([`swap_mirror_limbs`], [`turn_round_at_forks`], [`take_mirror_limbs_held_in_part`],
+//! [`move_to_free_mirror_limbs`]), trade a stray for an assigned stroke, give a stray the
+//! free limbs most like it ([`limb_picks`]), give a stroke another close chain (the strokes
+//! that lose bones pick again), move a stroke to a free chain of about its length, shift a
+//! run of strokes along a row of alike limbs ([`shift_along_rows`]), and turn the joint a
+//! row fans out of with the row's strokes placed anew ([`turn_row_joints`]). Every move is
+//! judged by one accept step ([`Solver::accept`]): a quick fit, then a full one when it
+//! explains the strokes better.
 
 use super::assignment::complete_greedily;
 use super::candidates::{Candidate, Candidates, STRAY_COST, candidates};
 use super::chains::{Assignment, better_direction, stroke_length};
 use super::fitting::FULL_FIT_STEPS;
-use super::mirror_moves::{swap_mirror_limbs, take_mirror_limbs_held_in_part, turn_round_at_forks};
+use super::mirror_moves::{
+    move_to_free_mirror_limbs, swap_mirror_limbs, take_mirror_limbs_held_in_part,
+    turn_round_at_forks,
+};
 use super::row_shift::{shift_along_rows, turn_row_joints};
 use super::solver::{ChainFit, Solver};
 
@@ -50,6 +53,7 @@ pub(super) fn improve(solver: &mut Solver, mut fit: ChainFit) -> ChainFit {
         improved |= take_mirror_limbs_held_in_part(solver, &mut fit);
         improved |= shift_along_rows(solver, &mut fit);
         improved |= turn_row_joints(solver, &mut fit);
+        improved |= move_to_free_mirror_limbs(solver, &mut fit);
         if !improved {
             break;
         }

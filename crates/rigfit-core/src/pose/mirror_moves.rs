@@ -1,8 +1,9 @@
 //! Local moves between mirror-image limbs: swap the strokes of two limbs (judged from the
 //! current pose, then from the start pose, then with the strokes below the limbs carried
 //! across), turn the body round at a fork (a chest, a pelvis) with every stroke below it
-//! mirrored, and give a stroke on the undrawn side's limb its own limb back from a shorter
-//! stroke holding part of it. Every move is judged by the local moves' accept step.
+//! mirrored, give a stroke on the undrawn side's limb its own limb back from a shorter
+//! stroke holding part of it, and move a limb's strokes to its free mirror image. Every
+//! move is judged by the local moves' accept step.
 
 use super::bones::Bone;
 use super::chains::{Assignment, better_direction, covers_a_bone_twice};
@@ -72,6 +73,52 @@ pub(super) fn swap_mirror_limbs(solver: &mut Solver, fit: &mut ChainFit) -> bool
                 improved |=
                     solver.accept(carried.clone(), fit) || judge_from_start(solver, &carried, fit);
             }
+        }
+    }
+    improved
+}
+
+/// Move a stroke to the mirror image of its limb when no stroke covers a bone of that image,
+/// the strokes on the bones below the limb (a hand's) carried across with it: an arm that
+/// reached across the chest for the other arm's stroke gives it back, with its hand's.
+/// Judged from the current pose, then with the limbs back at their start pose.
+pub(super) fn move_to_free_mirror_limbs(solver: &mut Solver, fit: &mut ChainFit) -> bool {
+    let Some(mirrors) = solver.bone_mirrors.clone() else {
+        return false;
+    };
+    let mut improved = false;
+    for s in 0..fit.assignment.len() {
+        let Some((chain, reversed)) = fit.assignment[s].clone() else {
+            continue;
+        };
+        let Some(image) = chain
+            .iter()
+            .map(|&b| mirrors[b])
+            .collect::<Option<Vec<usize>>>()
+        else {
+            continue;
+        };
+        // A chain on the middle (a spine) is its own image.
+        if image.iter().any(|b| chain.contains(b)) || !solver.setup.stroke_may_cover(s, &image) {
+            continue;
+        }
+        let taken = solver.bones_taken(&fit.assignment, None);
+        if image.iter().any(|&b| taken[b]) {
+            continue;
+        }
+        let mut trial = fit.assignment.clone();
+        // The image runs the same way along its limb (where it is now says nothing).
+        trial[s] = Some((image.clone(), reversed));
+        let carried = carried_across(
+            &trial,
+            [&chain, &image],
+            &mirrors,
+            &solver.setup.model.next_bones,
+            |u, c| solver.setup.stroke_may_cover(u, c),
+        )
+        .unwrap_or(trial);
+        if solver.accept(carried.clone(), fit) || judge_from_start(solver, &carried, fit) {
+            improved = true;
         }
     }
     improved
@@ -322,5 +369,101 @@ mod tests {
         assert_eq!(turned[2], assignment[2]);
         // Nothing but the middle drawn: nothing to turn.
         assert!(mirrored(&assignment[1..], &below, &mirrors, everywhere).is_none());
+    }
+
+    /// A chest with an arm and a hand on each side, named left and right, arms out along x.
+    fn two_armed() -> crate::skeleton::Skeleton {
+        use crate::skeleton::{Joint, Skeleton};
+        use crate::{Trs, Vector3};
+        let at = |x: f64, y: f64| Trs::from_translation(Vector3::new(x, y, 0.0));
+        let joints = vec![
+            Joint::new("hips", None, Trs::default()),
+            Joint::new("chest", Some(0), at(0.0, 1.0)),
+            Joint::new("head", Some(1), at(0.0, 0.4)),
+            Joint::new("shoulder_left", Some(1), at(0.15, 0.0)),
+            Joint::new("elbow_left", Some(3), at(0.3, 0.0)),
+            Joint::new("wrist_left", Some(4), at(0.3, 0.0)),
+            Joint::new("finger_left", Some(5), at(0.12, 0.0)),
+            Joint::new("shoulder_right", Some(1), at(-0.15, 0.0)),
+            Joint::new("elbow_right", Some(7), at(-0.3, 0.0)),
+            Joint::new("wrist_right", Some(8), at(-0.3, 0.0)),
+            Joint::new("finger_right", Some(9), at(-0.12, 0.0)),
+        ];
+        Skeleton::new(joints).expect("valid")
+    }
+
+    /// `n` points from `a` to `b`.
+    fn drawn(a: [f64; 3], b: [f64; 3], n: usize) -> crate::Stroke {
+        let (a, b) = (crate::Point3::from(a), crate::Point3::from(b));
+        crate::Stroke {
+            points: (0..n)
+                .map(|i| a + (b - a) * (i as f64 / (n - 1) as f64))
+                .collect(),
+            bones: None,
+        }
+    }
+
+    #[test]
+    fn an_arm_that_took_the_other_arms_stroke_gives_it_back_with_its_hands() {
+        use super::super::setup::Setup;
+        use crate::interrupt::Interrupt;
+        use crate::pose::{PoseOptions, PoseProblem};
+        let skeleton = two_armed();
+        let start = skeleton.rest_pose();
+        // The right arm hangs down, its hand below it, and the head is drawn where it is.
+        let strokes = vec![
+            drawn([-0.15, 1.0, 0.0], [-0.15, 0.4, 0.0], 40),
+            drawn([-0.15, 0.4, 0.0], [-0.15, 0.28, 0.0], 10),
+            drawn([0.0, 1.0, 0.0], [0.0, 1.4, 0.0], 20),
+        ];
+        let problem = PoseProblem {
+            skeleton: &skeleton,
+            start: &start,
+            strokes: &strokes,
+            movable: None,
+            height: 1.4,
+        };
+        let options = PoseOptions::default();
+        let interrupt = Interrupt::never();
+        let setup = Setup::new(&problem, &options, &interrupt).expect("a setup");
+        let mut solver = Solver::new(setup);
+        let bones = solver.setup.model.bones.clone();
+        let named = |tip: &str| {
+            let j = skeleton.find(tip).expect("a joint");
+            bones.iter().position(|b| b.child == j).expect("a bone")
+        };
+        let (left_arm, left_hand) = (
+            vec![named("elbow_left"), named("wrist_left")],
+            vec![named("finger_left")],
+        );
+        let (right_arm, right_hand) = (
+            vec![named("elbow_right"), named("wrist_right")],
+            vec![named("finger_right")],
+        );
+        // The left arm reached across the chest for the right arm's stroke, its hand with it.
+        let assignment: Vec<Assignment> = vec![
+            Some((left_arm, false)),
+            Some((left_hand, false)),
+            Some((vec![named("head")], false)),
+        ];
+        let layout = solver
+            .fitter
+            .keep_unexplained_at_start(&solver.setup, &assignment);
+        let setup = std::sync::Arc::clone(&solver.setup);
+        solver
+            .fitter
+            .fit_arclength(&setup, &layout, &assignment, FULL_FIT_STEPS);
+        let mut fit = ChainFit {
+            score: solver.score(&assignment, &layout),
+            pose: solver.fitter.pose.clone(),
+            assignment,
+            layout,
+            by_shape: true,
+        };
+        assert!(move_to_free_mirror_limbs(&mut solver, &mut fit));
+        assert_eq!(fit.assignment[0], Some((right_arm, false)));
+        assert_eq!(fit.assignment[1], Some((right_hand, false)));
+        // Nothing is left to move back.
+        assert!(!move_to_free_mirror_limbs(&mut solver, &mut fit));
     }
 }
