@@ -7,7 +7,8 @@
 //! 10%).
 //!
 //! `cargo run --release -p rigfit-testkit --example surface_corpus`
-//! (`SEEDS=N` seeds 0..N, default 1; `OBJECTS=id,id` some objects; `PAPER=1` the paper's
+//! (`SEEDS=N` seeds 0..N, default 1; `OBJECTS=id,id` some objects; `FAR_POSES=N` the motion
+//! through N far poses instead of 6 (3: the pace, half as fast); `PAPER=1` the paper's
 //! method; `FAST_MOTION=1` `SurfaceOptions::fast_motion`; `NO_LINKS=1` without contact
 //! links; `NO_CARRY=1` without carrying unseen patches; `SIGMA`, `ANNEAL`, `ITERATIONS`,
 //! `MERGE`, `TOLERANCE`, `STRIDE`, `CANDIDATES`, `CUTOFF`, `HOLD`, `COARSE_ITERATIONS`,
@@ -85,7 +86,8 @@ fn main() {
         options.patches.link_parts = false;
     }
     let verbose = std::env::var("VERBOSE").is_ok();
-    let parts = PartsOptions::default();
+    let mut parts = PartsOptions::default();
+    env_knobs::set_count("FAR_POSES", &mut parts.far_poses);
     println!(
         "| object | half | seed | pieces | vertices | mean | p95 | worst frame | worst vertex | unseen part back (mean / worst) | ms/frame | bar |"
     );
