@@ -404,7 +404,7 @@ mod tests {
     }
 
     #[test]
-    fn an_arm_that_took_the_other_arms_stroke_gives_it_back_with_its_hands() {
+    fn an_arm_that_took_the_other_arms_stroke_gives_it_back_with_the_hands_stroke() {
         use super::super::setup::Setup;
         use crate::interrupt::Interrupt;
         use crate::pose::{PoseOptions, PoseProblem};
