@@ -53,6 +53,12 @@ pub(super) fn bone_mirrors(skeleton: &Skeleton, model: &BoneModel) -> Option<Vec
     )
 }
 
+/// The mirror image of `chain`, bone by bone (`mirrors`: one entry per bone, [`bone_mirrors`]);
+/// `None` when a bone has no mirror.
+pub(super) fn chain_image(chain: &[usize], mirrors: &[Option<usize>]) -> Option<Vec<usize>> {
+    chain.iter().map(|&b| mirrors[b]).collect()
+}
+
 /// `assignment` with every stroke whose chain lies on the bones `below` moved to its mirror
 /// image (`mirrors`: one entry per bone, [`bone_mirrors`]); a chain with a bone that has no
 /// mirror, or whose image its stroke may not cover (`may_cover(stroke, chain)`: a stroke
@@ -73,11 +79,7 @@ pub(super) fn mirrored(
         if !chain.iter().all(|&b| below[b]) {
             continue;
         }
-        let Some(image) = chain
-            .iter()
-            .map(|&b| mirrors[b])
-            .collect::<Option<Vec<_>>>()
-        else {
+        let Some(image) = chain_image(chain, mirrors) else {
             continue;
         };
         if image != *chain && may_cover(u, &image) {

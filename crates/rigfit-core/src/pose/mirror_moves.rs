@@ -9,7 +9,7 @@ use super::bones::Bone;
 use super::chains::{Assignment, better_direction, covers_a_bone_twice};
 use super::fitting::FULL_FIT_STEPS;
 use super::local_moves::MIRROR_LENGTH_TOLERANCE;
-use super::mirror_image::mirrored;
+use super::mirror_image::{chain_image, mirrored};
 use super::row_shift::judge_from_start;
 use super::solver::{ChainFit, Solver};
 use crate::kinematics::ForwardKinematics;
@@ -91,11 +91,7 @@ pub(super) fn move_to_free_mirror_limbs(solver: &mut Solver, fit: &mut ChainFit)
         let Some((chain, reversed)) = fit.assignment[s].clone() else {
             continue;
         };
-        let Some(image) = chain
-            .iter()
-            .map(|&b| mirrors[b])
-            .collect::<Option<Vec<usize>>>()
-        else {
+        let Some(image) = chain_image(&chain, &mirrors) else {
             continue;
         };
         // A chain on the middle (a spine) is its own image.
@@ -148,7 +144,7 @@ fn carried_across(
         if !chain.iter().all(|&b| below[b]) {
             continue;
         }
-        let image: Vec<usize> = chain.iter().map(|&b| mirrors[b]).collect::<Option<_>>()?;
+        let image = chain_image(chain, mirrors)?;
         if !may_cover(u, &image) {
             return None;
         }

@@ -477,10 +477,6 @@ mod tests {
         assert!(PieceTree::new(&model, &PieceTreeOptions::default()).is_none());
     }
 
-    /// The arm swings up to 85 degrees and back, up to 30 degrees between scans (its tip
-    /// moving up to a fifth of the diagonal), in scans with 10% clutter: each frame starts
-    /// from the pieces' tree and stays within 1.5% of the diagonal on average (0.3-0.5%
-    /// measured).
     /// The body and arm tracked through scans (4,000 points, 10% clutter, seeded by `seed`)
     /// of the arm turned to each of `degrees`: each frame's mean error, in diagonals.
     fn track_arm(options: &SurfaceOptions, seed: u64, degrees: &[f64]) -> Vec<f64> {
@@ -501,6 +497,10 @@ mod tests {
             .collect()
     }
 
+    /// The arm swings up to 85 degrees and back, up to 30 degrees between scans (its tip
+    /// moving up to a fifth of the diagonal), in scans with 10% clutter: each frame starts
+    /// from the pieces' tree and stays within 1.5% of the diagonal on average (0.3-0.5%
+    /// measured).
     #[test]
     fn an_arm_swinging_fast_is_followed() {
         let with_tree = track_arm(
