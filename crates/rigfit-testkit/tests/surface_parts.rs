@@ -7,7 +7,7 @@
 //! the whole sequence hold today's figures (BENCHMARKS.md), not yet the issue's bar, except
 //! on humanoid_CMU, which the pieces' kinematic tree brings within it.
 
-use rigfit_core::surface::SurfaceOptions;
+use rigfit_core::surface::{PatchModel, PatchOptions, SurfaceOptions};
 use rigfit_testkit::surface_corpus::{PartsOptions, PartsScore, load, parts_case, track_parts};
 
 fn score(id: &str, options: &SurfaceOptions) -> PartsScore {
@@ -103,4 +103,75 @@ fn fast_motion_keeps_up_with_a_fast_many_part_creature() {
         "worst vertex {}",
         fast.worst_vertex()
     );
+}
+
+/// The walker (held-out half): seven capsules of one vertex count, its two legs side by
+/// side, touching along their length. The contact links join the pieces whose ends meet:
+/// both thighs to the torso, each shin to its thigh, each foot to its shin, never the left
+/// leg to the right (pieces at one height). Hung from the nearest larger piece, by vertex
+/// count and then index, the thighs hung from each other and so did the feet
+/// (BENCHMARKS.md, issue 22, session 28).
+#[test]
+fn the_walkers_legs_are_linked_where_their_ends_meet_not_side_by_side() {
+    let corpus = load().unwrap_or_else(|e| panic!("{e}"));
+    let entry = corpus.entry("dmc-walker").expect("the walker");
+    let up = corpus.read_rig(entry).unwrap_or_else(|e| panic!("{e}")).up;
+    let case =
+        parts_case(&corpus, entry, 0, &PartsOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(case.pieces, 7);
+    let model = PatchModel::new(&case.sequence.reference, &PatchOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    // Each piece's mean height along the walker's up axis.
+    let mut height = [(0.0, 0usize); 7];
+    for (v, &k) in model.vertex_patch.iter().enumerate() {
+        let piece = model.component[k as usize] as usize;
+        height[piece].0 += model.rest[v].coords.dot(&up);
+        height[piece].1 += 1;
+    }
+    let height = height.map(|(sum, n)| sum / n as f64);
+    let mut pairs: Vec<(usize, usize)> = model
+        .contacts
+        .iter()
+        .map(|link| {
+            let (a, b) = (
+                model.component[link.k as usize],
+                model.component[link.l as usize],
+            );
+            (a.min(b) as usize, a.max(b) as usize)
+        })
+        .collect();
+    pairs.sort_unstable();
+    pairs.dedup();
+    assert_eq!(pairs.len(), 6, "a tree over the seven pieces: {pairs:?}");
+    for (a, b) in pairs {
+        let apart = (height[a] - height[b]).abs();
+        assert!(
+            apart > 0.05 * model.diagonal,
+            "pieces {a} and {b} side by side ({apart} apart in height)"
+        );
+    }
+}
+
+/// At the issue's pace (3 far poses: limbs turning up to about 25 degrees a frame), Fetch's
+/// gripper (tuning half), unseen in frames 10-19 while it moves, is found again when it
+/// comes back: every vertex of it within 5% of the diagonal (1.6% measured; 34% when its
+/// pieces hung from the nearest larger piece, which chained the arm's links out of order).
+#[test]
+fn fetchs_gripper_is_found_again_when_it_comes_back_at_the_issues_pace() {
+    let corpus = load().unwrap_or_else(|e| panic!("{e}"));
+    let entry = corpus.entry("gymr-fetch").expect("Fetch");
+    let parts = PartsOptions {
+        far_poses: 3,
+        ..PartsOptions::default()
+    };
+    let case = parts_case(&corpus, entry, 0, &parts).unwrap_or_else(|e| panic!("{e}"));
+    let score = track_parts(
+        &case,
+        &SurfaceOptions::default(),
+        parts.scan.hole_frames.clone(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let back = score.returned_worst.expect("a part was left out");
+    assert!(back < 0.05, "the gripper comes back {back}");
+    assert!(score.mean < 0.015, "mean {}", score.mean);
 }

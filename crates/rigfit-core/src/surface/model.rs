@@ -7,7 +7,7 @@
 use rayon::prelude::*;
 
 use super::SurfaceError;
-use super::contacts::{ContactLink, contact_links};
+use super::contacts::{ContactLink, LinkRule, contact_links};
 use super::patches::{VertexGraph, connected_components, farthest_point_partition};
 use crate::geometry::{Aabb, TriMesh};
 use crate::math::{Matrix3, Point3, Vector3};
@@ -33,9 +33,10 @@ pub struct PatchOptions {
     /// Rigidity weight of a contact vertex, against `alpha_k(v) + alpha_l(v)` (at most 1) of
     /// a vertex in a piece's rigidity term.
     pub contact_stiffness: f64,
-    /// Groups of pieces that the "hang from the nearest larger piece" rule leaves apart,
-    /// though they touch, are joined along their nearest gaps ([`contact_links`]).
-    pub join_groups: bool,
+    /// Which touching pieces are linked ([`contact_links`]): `None` chooses by the
+    /// reference (the ends meeting for an object made of parts, the nearest larger piece
+    /// for a skinned body with pieces on it).
+    pub link_rule: Option<LinkRule>,
 }
 
 impl Default for PatchOptions {
@@ -47,9 +48,7 @@ impl Default for PatchOptions {
             part_gap: 1.0,
             contact_width: 0.25,
             contact_stiffness: 1.0,
-            // Without it, the rodent's and the dog's limbs are groups of pieces linked among
-            // themselves and to nothing else (BENCHMARKS.md).
-            join_groups: true,
+            link_rule: None,
         }
     }
 }
@@ -196,6 +195,12 @@ impl PatchModel {
             .iter()
             .map(|&s| components[s as usize])
             .collect();
+        let rest_normals = TriMesh {
+            vertices: rest.clone(),
+            normals: None,
+            triangles: triangles.clone(),
+        }
+        .vertex_normals_from_faces();
         let contacts = if options.link_parts {
             // A piece per patch: loose vertices go with the patch they follow.
             let vertex_component: Vec<u32> = vertex_patch
@@ -204,12 +209,13 @@ impl PatchModel {
                 .collect();
             contact_links(
                 &rest,
+                &rest_normals,
                 &vertex_component,
                 &vertex_patch,
                 options.part_gap * radius,
                 options.contact_width * radius,
                 options.contact_stiffness,
-                options.join_groups,
+                options.link_rule,
             )
         } else {
             Vec::new()
@@ -227,12 +233,6 @@ impl PatchModel {
                 vertex_area[i as usize] += area / 3.0;
             }
         }
-        let rest_normals = TriMesh {
-            vertices: rest.clone(),
-            normals: None,
-            triangles: triangles.clone(),
-        }
-        .vertex_normals_from_faces();
         let mut area = vec![0.0; patch_count];
         let mut rest_centre = Vec::with_capacity(patch_count);
         for (k, m) in members.iter().enumerate() {

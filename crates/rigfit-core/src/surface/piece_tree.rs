@@ -10,6 +10,7 @@
 use std::collections::VecDeque;
 
 use super::PieceTreeOptions;
+use super::contacts::SKIN_SPAN;
 use super::model::{PatchModel, PatchPose};
 use crate::math::{
     Matrix3, Matrix4, Point3, Trs, Vector3, linear_part, nearest_rotation, translation_part,
@@ -18,11 +19,6 @@ use crate::rig::Rig;
 use crate::skeleton::{Joint, JointDof, Skeleton};
 use crate::skinning::SkinnedMesh;
 use crate::track::{ArticulatedModel, Tracker};
-
-/// A piece more than this share of the reference's diagonal across is a skin, not a part:
-/// a reference with one is not tracked as a tree of rigid pieces (the skinned characters'
-/// bodies span 0.99 of it, the corpus's robot and creature parts at most 0.66).
-const SKIN_SPAN: f64 = 0.75;
 
 /// The data points (evenly strided) on which the fits from the two predictions are compared.
 const CHOICE_POINTS: usize = 500;
@@ -105,7 +101,7 @@ impl PieceTree {
             *c /= n.max(1) as f64;
         }
         // A piece across nearly the whole object is a skin, which bends: the tree would
-        // move it rigidly.
+        // move it rigidly ([`SKIN_SPAN`]).
         if (0..pieces).any(|p| (high[p] - low[p]).norm() > SKIN_SPAN * model.diagonal) {
             return None;
         }
