@@ -13,7 +13,8 @@ import pytest
 import rigfit
 from conftest import REPO, asset
 
-OPTIONS = ["patch_radius", "outliers", "rigidity", "iterations", "merge", "coarse", "fast_motion", "piece_tree"]
+OPTIONS = ["patch_radius", "outliers", "rigidity", "iterations", "merge", "coarse", "points_per_vertex", "fast_motion",
+           "piece_tree"]
 
 
 def sphere(rings=12, segments=16, radius=1.0):
@@ -43,7 +44,7 @@ def test_the_defaults_are_the_command_lines_in_the_signature_and_the_stubs():
     v, f = sphere()
     options = rigfit.SurfaceTracker(v, f).options
     assert options == {"patch_radius": 0.06, "outliers": 0.15, "rigidity": 4.0, "iterations": 25, "merge": 0.0, "coarse": 4,
-                       "fast_motion": False, "piece_tree": True}
+                       "points_per_vertex": 1.0, "fast_motion": False, "piece_tree": True}
     signature = inspect.signature(rigfit.SurfaceTracker)
     assert {k: signature.parameters[k].default for k in OPTIONS} == options
     stubs = ast.parse(Path(rigfit.__file__).with_name("__init__.pyi").read_text())
@@ -108,6 +109,7 @@ def test_fast_motion_is_an_option_of_its_own():
         ("iterations", 2.5, "iterations: expected a whole number, got 2.5"),
         ("coarse", 0, "coarse: expected a stride from 1 to 1024, got 0"),
         ("coarse", 1025, "coarse: expected a stride from 1 to 1024, got 1025"),
+        ("points_per_vertex", -1.0, "points_per_vertex: expected a non-negative number of points a vertex"),
     ],
 )
 def test_options_out_of_bounds_are_refused_as_the_command_line_refuses_them(option, value, message):
@@ -119,7 +121,8 @@ def test_options_out_of_bounds_are_refused_as_the_command_line_refuses_them(opti
 def test_the_bounds_themselves_are_accepted():
     v, f = sphere()
     for option, value in [("patch_radius", 1e-4), ("patch_radius", 10), ("outliers", 0), ("rigidity", 0),
-                          ("iterations", 1), ("iterations", 1000), ("merge", 2), ("coarse", 1), ("coarse", np.int64(1024))]:
+                          ("iterations", 1), ("iterations", 1000), ("merge", 2), ("coarse", 1), ("coarse", np.int64(1024)),
+                          ("points_per_vertex", 0)]:
         assert rigfit.SurfaceTracker(v, f, **{option: value}).options[option] == value
 
 
@@ -229,6 +232,7 @@ def test_the_command_line_writes_the_same_vertices_as_python(sequence):
     args = [str(binary), "surface", str(folder / "reference.ply"), *map(str, sequence["frames"]), "-o", str(out),
             "--patch-radius", str(o["patch_radius"]), "--outliers", str(o["outliers"]), "--rigidity", str(o["rigidity"]),
             "--iterations", str(o["iterations"]), "--merge", str(o["merge"]), "--coarse", str(o["coarse"]),
+            "--points-per-vertex", str(o["points_per_vertex"]),
             *(["--fast-motion"] if o["fast_motion"] else []), *([] if o["piece_tree"] else ["--no-piece-tree"])]
     run = subprocess.run(args, capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, f"{binary}: {run.stderr}"

@@ -59,6 +59,10 @@ fn coarse(obj: &Bound<'_, PyAny>) -> PyResult<usize> {
     count(obj, "coarse")
 }
 
+fn points_per_vertex(obj: &Bound<'_, PyAny>) -> PyResult<f64> {
+    number(obj, "points_per_vertex")
+}
+
 /// What tracking one frame found.
 #[pyclass(module = "rigfit", name = "SurfaceFit", frozen, get_all)]
 #[derive(Debug)]
@@ -103,7 +107,9 @@ impl PySurfaceFit {
 /// ``iterations`` (EM iterations per frame at most, 1 to 1000), ``merge`` (merge each
 /// frame's points by cubes of this many point spacings first; 0: every point, >= 0),
 /// ``coarse`` (a frame's first iterations, two or four with ``fast_motion``, use one point
-/// in this many, 1 to 1024), ``fast_motion`` (``--fast-motion``: for limbs that move a
+/// in this many, 1 to 1024), ``points_per_vertex`` (on an object of rigid pieces, every
+/// iteration fits about this many points a reference vertex; 0: every point, >= 0),
+/// ``fast_motion`` (``--fast-motion``: for limbs that move a
 /// tenth of the object or more between frames, at about twice the time on such frames) and
 /// ``piece_tree`` (``False`` is ``--no-piece-tree``: a many-part object's patches start
 /// from their own motion continued, not from the pieces' kinematic tree).
@@ -130,9 +136,10 @@ impl PySurfaceTracker {
         iterations = SurfaceOptions::default().max_iterations,
         merge = SurfaceOptions::default().merge_cell,
         coarse = SurfaceOptions::default().coarse_stride,
+        points_per_vertex = SurfaceOptions::default().points_per_vertex,
         fast_motion = false,
         piece_tree = true,
-    ), text_signature = "(vertices, faces, *, patch_radius=0.06, outliers=0.15, rigidity=4.0, iterations=25, merge=0.0, coarse=4, fast_motion=False, piece_tree=True)")]
+    ), text_signature = "(vertices, faces, *, patch_radius=0.06, outliers=0.15, rigidity=4.0, iterations=25, merge=0.0, coarse=4, points_per_vertex=1.0, fast_motion=False, piece_tree=True)")]
     fn new(
         py: Python<'_>,
         vertices: &Bound<'_, PyAny>,
@@ -143,6 +150,7 @@ impl PySurfaceTracker {
         #[pyo3(from_py_with = iterations)] iterations: usize,
         #[pyo3(from_py_with = merge)] merge: f64,
         #[pyo3(from_py_with = coarse)] coarse: usize,
+        #[pyo3(from_py_with = points_per_vertex)] points_per_vertex: f64,
         fast_motion: bool,
         piece_tree: bool,
     ) -> PyResult<Self> {
@@ -157,6 +165,7 @@ impl PySurfaceTracker {
         options.max_iterations = iterations;
         options.merge_cell = merge;
         options.coarse_stride = coarse;
+        options.points_per_vertex = points_per_vertex;
         if !piece_tree {
             options.piece_tree = None;
         }
@@ -245,7 +254,8 @@ impl PySurfaceTracker {
     }
 
     /// The options in force, by keyword (``patch_radius``, ``outliers``, ``rigidity``,
-    /// ``iterations``, ``merge``, ``coarse``, ``fast_motion``, ``piece_tree``).
+    /// ``iterations``, ``merge``, ``coarse``, ``points_per_vertex``, ``fast_motion``,
+    /// ``piece_tree``).
     #[getter]
     fn options<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let o = &self.tracker.options;
@@ -256,6 +266,7 @@ impl PySurfaceTracker {
         d.set_item("iterations", o.max_iterations)?;
         d.set_item("merge", o.merge_cell)?;
         d.set_item("coarse", o.coarse_stride)?;
+        d.set_item("points_per_vertex", o.points_per_vertex)?;
         d.set_item("fast_motion", self.fast_motion)?;
         d.set_item("piece_tree", o.piece_tree.is_some())?;
         Ok(d)

@@ -12,7 +12,8 @@
 //! method; `FAST_MOTION=1` `SurfaceOptions::fast_motion`; `NO_LINKS=1` without contact
 //! links; `NO_CARRY=1` without carrying unseen patches; `SIGMA`, `ANNEAL`, `ITERATIONS`,
 //! `MERGE`, `TOLERANCE`, `STRIDE`, `CANDIDATES`, `CUTOFF`, `HOLD`, `COARSE_ITERATIONS`,
-//! `FAST`, `COARSE_STIFFNESS`, `ANCHOR`, `STIFFNESS`, `CONTACT_WIDTH`, `PART_GAP` set those
+//! `FAST`, `COARSE_STIFFNESS`, `ANCHOR`, `STIFFNESS`, `CONTACT_WIDTH`, `PART_GAP`,
+//! `POINTS_PER_VERTEX` set those
 //! options; `NO_PIECE_TREE=1` without the pieces' tree, `TREE_POINTS`, `TREE_STRIDE`,
 //! `TREE_STEPS`, `TREE_FINAL`, `TREE_SIGMA` its model points, data stride, annealing steps,
 //! iterations at the floor and first kernel, `TREE_SECOND=1.0` the tree tracked from a
@@ -65,6 +66,7 @@ fn main() {
     env_knobs::set("CONTACT_WIDTH", &mut options.patches.contact_width);
     env_knobs::set("PART_GAP", &mut options.patches.part_gap);
     env_knobs::set("STIFFNESS", &mut options.patches.contact_stiffness);
+    env_knobs::set("POINTS_PER_VERTEX", &mut options.points_per_vertex);
     if let Some(tree) = options.piece_tree.as_mut() {
         env_knobs::set_count("TREE_POINTS", &mut tree.model_points);
         env_knobs::set_count("TREE_STRIDE", &mut tree.data_stride);

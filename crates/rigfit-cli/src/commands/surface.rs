@@ -49,6 +49,11 @@ pub struct SurfaceArgs {
     /// every point throughout.
     #[arg(long, default_value_t = SurfaceOptions::default().coarse_stride)]
     pub coarse: usize,
+    /// On an object of rigid pieces (tracked with its pieces' tree), fit about this many of
+    /// a frame's points per reference vertex in every iteration (a scan much denser than the
+    /// mesh costs what the mesh needs); 0 fits every point. A skin fits every point.
+    #[arg(long, default_value_t = SurfaceOptions::default().points_per_vertex)]
+    pub points_per_vertex: f64,
     /// For fast articulated motion (limbs moving a tenth of the object or more between
     /// frames): a wider first kernel after fast frames, each part of a many-part object
     /// held nearly rigid in four thinned first iterations, the kernel held while the mesh
@@ -129,6 +134,7 @@ fn options(args: &SurfaceArgs) -> anyhow::Result<SurfaceOptions> {
     options.max_iterations = args.iterations;
     options.merge_cell = args.merge;
     options.coarse_stride = args.coarse;
+    options.points_per_vertex = args.points_per_vertex;
     if args.no_piece_tree {
         options.piece_tree = None;
     }

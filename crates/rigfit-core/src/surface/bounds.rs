@@ -21,6 +21,7 @@ pub enum SurfaceOption {
     Iterations,
     Merge,
     Coarse,
+    PointsPerVertex,
 }
 
 impl SurfaceOption {
@@ -33,6 +34,7 @@ impl SurfaceOption {
             Self::Iterations => "iterations",
             Self::Merge => "merge",
             Self::Coarse => "coarse",
+            Self::PointsPerVertex => "points-per-vertex",
         }
     }
 
@@ -40,6 +42,7 @@ impl SurfaceOption {
     pub fn keyword(self) -> &'static str {
         match self {
             Self::PatchRadius => "patch_radius",
+            Self::PointsPerVertex => "points_per_vertex",
             other => other.flag(),
         }
     }
@@ -99,6 +102,12 @@ impl SurfaceOptions {
             return fail(
                 SurfaceOption::Merge,
                 "expected a non-negative number of point spacings".into(),
+            );
+        }
+        if !(self.points_per_vertex >= 0.0 && self.points_per_vertex.is_finite()) {
+            return fail(
+                SurfaceOption::PointsPerVertex,
+                "expected a non-negative number of points a vertex (0: every point)".into(),
             );
         }
         if !(self.rigidity >= 0.0 && self.rigidity.is_finite()) {

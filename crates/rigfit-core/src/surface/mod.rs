@@ -121,6 +121,14 @@ pub struct SurfaceOptions {
     /// be searched again after each step. 1 uses every point.
     pub coarse_stride: usize,
     pub coarse_iterations: usize,
+    /// On an object of rigid pieces (one tracked with its pieces' tree, `piece_tree`),
+    /// every iteration uses one point in `k` along the E-step's spatial order (each standing
+    /// for the ones it skips), `k` chosen so that about this many points are fitted per
+    /// reference vertex, and never fewer than 24 per patch; 0 fits every point. A scan
+    /// much denser than the mesh (8,000 points on a robot of 2,000 vertices) then costs what
+    /// the mesh needs, not what the scanner gives. A skin that bends always fits every
+    /// point (BENCHMARKS.md, issue 22, session 28).
+    pub points_per_vertex: f64,
     /// Patches with less data than their share are pulled toward the last frame's pose, by
     /// this fraction of an average vertex's data weight for what they lack
     /// ([`solve::anchor_weights`]); 0 turns it off (the paper).
@@ -220,6 +228,7 @@ impl SurfaceOptions {
             initial_sigma: 0.04,
             extrapolate: false,
             coarse_stride: 1,
+            points_per_vertex: 0.0,
             relaxation: 1.0,
             coarse_relaxation: 1.0,
             anchor: 0.0,
@@ -257,6 +266,9 @@ impl Default for SurfaceOptions {
             merge_cell: 0.0,
             coarse_stride: 4,
             coarse_iterations: 2,
+            // One point a vertex costs the many-part corpus's small objects nothing on the
+            // tuning half and a quarter of their time (BENCHMARKS.md, issue 22, session 28).
+            points_per_vertex: 1.0,
             anchor: 0.0,
             carry_unseen: true,
             // 0.5 helps the corpus's tune half and costs its held-out half (BENCHMARKS.md).

@@ -272,6 +272,7 @@ class SurfaceTracker:
         iterations: int = 25,
         merge: float = 0.0,
         coarse: int = 4,
+        points_per_vertex: float = 1.0,
         fast_motion: bool = False,
         piece_tree: bool = True,
     ) -> None:
@@ -282,7 +283,8 @@ class SurfaceTracker:
         ``iterations`` (EM iterations per frame at most, 1 to 1000), ``merge`` (merge each
         frame's points by cubes of this many point spacings; 0: off), ``coarse`` (the first
         iterations, two or four with ``fast_motion``, use one point in this many, 1 to
-        1024), ``fast_motion`` (``--fast-motion``: for limbs that move a tenth of the object
+        1024), ``points_per_vertex`` (on an object of rigid pieces, every iteration fits
+        about this many points a reference vertex; 0: every point, >= 0), ``fast_motion`` (``--fast-motion``: for limbs that move a tenth of the object
         or more between frames, at about twice the time on such frames), ``piece_tree``
         (``False`` is ``--no-piece-tree``: a many-part object's patches start from their
         own motion continued, not from the pieces' kinematic tree)."""
