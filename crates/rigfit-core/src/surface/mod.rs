@@ -266,8 +266,8 @@ impl Default for SurfaceOptions {
             merge_cell: 0.0,
             coarse_stride: 4,
             coarse_iterations: 2,
-            // One point a vertex costs the many-part corpus's small objects nothing on the
-            // tuning half and a quarter of their time (BENCHMARKS.md, issue 22, session 28).
+            // One point a vertex saves the many-part corpus's small objects a quarter of their
+            // time, at no cost on the tuning half (BENCHMARKS.md, issue 22, session 28).
             points_per_vertex: 1.0,
             anchor: 0.0,
             carry_unseen: true,
