@@ -63,13 +63,8 @@ impl LinkRule {
     /// most of the whole ([`SKIN_SPAN`]: a skinned body carrying its pieces), else the ends
     /// meeting (an object made of parts).
     fn for_pieces(bounds: &[Option<Aabb>]) -> Self {
-        let whole = bounds.iter().flatten().fold(None::<Aabb>, |all, b| {
-            Some(all.map_or(*b, |a| Aabb {
-                min: a.min.inf(&b.min),
-                max: a.max.sup(&b.max),
-            }))
-        });
-        let diagonal = whole.map_or(0.0, |b| b.diagonal());
+        let corners = bounds.iter().flatten().flat_map(|b| [&b.min, &b.max]);
+        let diagonal = Aabb::from_points(corners).map_or(0.0, |b| b.diagonal());
         if bounds
             .iter()
             .flatten()
@@ -165,8 +160,11 @@ pub fn contact_links(
     let linked = match rule.unwrap_or_else(|| LinkRule::for_pieces(&bounds)) {
         LinkRule::NearestLarger => nearest_larger(&gaps, pieces, &larger),
         LinkRule::EndsMeeting => {
-            let shapes: Vec<PieceShape> =
-                members.iter().map(|m| PieceShape::new(rest, m)).collect();
+            let shapes: Vec<PieceShape> = members
+                .iter()
+                .zip(&bounds)
+                .map(|(m, b)| PieceShape::new(rest, m, b.map_or(0.0, |b| b.diagonal())))
+                .collect();
             let end_distance = |from: usize, to: usize| -> f64 {
                 shapes[from].ends_to(to, &nearest_in, rest, normals)
             };
@@ -296,26 +294,16 @@ struct PieceShape {
 }
 
 impl PieceShape {
-    fn new(rest: &[Point3], members: &[u32]) -> Self {
+    /// The shape of the piece of vertices `members`, `extent` across.
+    fn new(rest: &[Point3], members: &[u32], extent: f64) -> Self {
         let at = |v: u32| rest[v as usize].coords;
         let count = members.len().max(1) as f64;
         let centroid = members.iter().fold(Vector3::zeros(), |s, &v| s + at(v)) / count;
         let mut covariance = Matrix3::zeros();
-        let (mut low, mut high) = (
-            Vector3::repeat(f64::INFINITY),
-            Vector3::repeat(f64::NEG_INFINITY),
-        );
         for &v in members {
             let d = at(v) - centroid;
             covariance += d * d.transpose();
-            low = low.inf(&at(v));
-            high = high.sup(&at(v));
         }
-        let extent = if members.is_empty() {
-            0.0
-        } else {
-            (high - low).norm()
-        };
         let eigen = covariance.symmetric_eigen();
         let axis: Vector3 = eigen
             .eigenvectors
