@@ -17,7 +17,8 @@
 //! options; `NO_PIECE_TREE=1` without the pieces' tree, `TREE_POINTS`, `TREE_STRIDE`,
 //! `TREE_STEPS`, `TREE_FINAL`, `TREE_SIGMA` its model points, data stride, annealing steps,
 //! iterations at the floor and first kernel, `TREE_SECOND=1.0` the tree tracked from a
-//! second prediction too and `TREE_CHOICE` the width choosing between the two; `VERBOSE=1`
+//! second prediction too and `TREE_CHOICE` the width choosing between the two; `RETURNING=1`
+//! parts coming back into view searched for; `VERBOSE=1`
 //! every frame's mean and worst vertex and the truth's steps, `VERBOSE=2` also each piece's
 //! mean in the worst frame; `PLOT=DIR` writes DIR/surface_parts_frames.png, each object's
 //! mean per frame, `_paper` with `PAPER=1`)
@@ -74,6 +75,9 @@ fn main() {
         env_knobs::set_count("TREE_FINAL", &mut tree.track.final_em_iterations);
         env_knobs::set("TREE_SIGMA", &mut tree.initial_sigma);
         env_knobs::set("TREE_CHOICE", &mut tree.choice_sigma);
+        if std::env::var("RETURNING").is_ok() {
+            tree.find_returning_parts = true;
+        }
         if let Ok(v) = std::env::var("TREE_SECOND") {
             tree.second_prediction = v.parse().ok();
         }

@@ -35,6 +35,28 @@ impl SurfaceTracker {
             None if self.options.extrapolate => self.continue_motion(&last),
             None => {}
         }
+        // Where the patches short of data are held and carried from: the last frame's pose,
+        // but a part found again where it came back into view (it was not where it was
+        // lost).
+        let returned = self
+            .piece_tree
+            .as_ref()
+            .map(|tree| tree.returned_pieces())
+            .unwrap_or_default();
+        let moved_last = match &piece_steps {
+            Some(steps) if !returned.is_empty() => {
+                let mut held = last.clone();
+                super::piece_tree::PieceTree::move_some_patches(
+                    &self.model,
+                    &mut held,
+                    steps,
+                    &returned,
+                );
+                Some(held)
+            }
+            _ => None,
+        };
+        let held_from = moved_last.as_ref().unwrap_or(&last);
         // After the pieces' tree took up most of the motion, a narrower first kernel.
         let first_sigma = match (&piece_steps, &self.options.piece_tree) {
             (Some(_), Some(tree)) => tree.initial_sigma,
@@ -116,7 +138,7 @@ impl SurfaceTracker {
             spare_positions: Vec::new(),
             targets: VertexTargets::default(),
             total: 0.0,
-            anchor: (self.options.anchor > 0.0).then_some(&last),
+            anchor: (self.options.anchor > 0.0).then_some(held_from),
             stride: everywhere,
             tracker: self,
             data,
@@ -137,7 +159,7 @@ impl SurfaceTracker {
         };
         let support = patch_support(&self.model, &targets);
         if self.options.carry_unseen && support.iter().any(|&s| s < 1.0) {
-            carry_unseen(&self.model, &last, &mut self.pose, &support);
+            carry_unseen(&self.model, held_from, &mut self.pose, &support);
             positions = self.model.positions(&self.pose);
         }
         if positions.iter().any(|p| p.iter().any(|x| !x.is_finite())) {
@@ -146,7 +168,7 @@ impl SurfaceTracker {
             return Err(SurfaceError::Diverged);
         }
         if let Some(tree) = self.piece_tree.as_mut() {
-            tree.sync(&self.model, &self.pose);
+            tree.sync(&self.model, &self.pose, &support);
         }
         self.previous = Some(last);
         self.support = support;

@@ -180,6 +180,14 @@ pub struct PieceTreeOptions {
     pub second_prediction: Option<f64>,
     /// The width (fraction of the height) of the E-step that chooses between the two fits.
     pub choice_sigma: f64,
+    /// A piece that lost its data in the last frame is turned about its joint onto new
+    /// data that no piece explains around it, when that data looks like the part coming
+    /// back into view (`piece_tree::returning`). Off by default: it finds the cheetah's
+    /// returning foot in 4 more sequences of 8 and lowers the tuning half's mean (0.88% ->
+    /// 0.84% of the diagonal at the issue's pace), but turns a rodent's returning leg and a
+    /// walker's leg onto the wrong data on the held-out half (28 sequences within the bar
+    /// against 29; BENCHMARKS.md, issue 22, session 29).
+    pub find_returning_parts: bool,
 }
 
 impl Default for PieceTreeOptions {
@@ -195,6 +203,7 @@ impl Default for PieceTreeOptions {
             initial_sigma: 0.015,
             second_prediction: None,
             choice_sigma: 0.02,
+            find_returning_parts: false,
         }
     }
 }

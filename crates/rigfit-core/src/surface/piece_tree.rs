@@ -9,6 +9,8 @@
 
 use std::collections::VecDeque;
 
+mod returning;
+
 use super::PieceTreeOptions;
 use super::contacts::SKIN_SPAN;
 use super::model::{PatchModel, PatchPose};
@@ -23,7 +25,6 @@ use crate::track::{ArticulatedModel, Tracker};
 /// The data points (evenly strided) on which the fits from the two predictions are compared.
 const CHOICE_POINTS: usize = 500;
 
-/// A rigid motion `x -> rotation * x + translation`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RigidMotion {
     pub rotation: Matrix3,
@@ -70,6 +71,20 @@ pub struct PieceTree {
     /// ([`PieceTreeOptions::second_prediction`]).
     second_prediction: Option<f64>,
     choice_sigma: f64,
+    /// The last frame's points (as the tracker matched them) that no piece explained:
+    /// returning data is new data.
+    last_unexplained: Vec<Point3>,
+    /// Whether to look for parts coming back into view
+    /// ([`PieceTreeOptions::find_returning_parts`]).
+    find_returning: bool,
+    /// The reference's surface area.
+    surface_area: f64,
+    /// Each piece's support at the end of the last frame (its patches' share of the data
+    /// explained, [`super::solve::patch_support`], weighted by area).
+    piece_support: Vec<f64>,
+    /// The joints turned onto returning data this frame ([`PieceTree::sync`] keeps the turn
+    /// out of the motion the next frame continues).
+    returned: Vec<usize>,
 }
 
 impl PieceTree {
@@ -203,6 +218,11 @@ impl PieceTree {
             synced: None,
             second_prediction: options.second_prediction,
             choice_sigma: options.choice_sigma,
+            last_unexplained: Vec::new(),
+            find_returning: options.find_returning_parts,
+            surface_area: model.area.iter().sum(),
+            piece_support: Vec::new(),
+            returned: Vec::new(),
         })
     }
 
@@ -221,7 +241,7 @@ impl PieceTree {
         } else {
             points
         };
-        let fit = match self.second_prediction {
+        let _fit = match self.second_prediction {
             None => self.tracker.track(points).ok()?,
             Some(second) => {
                 // The same frame from two predictions, in parallel (each fit is serial).
@@ -254,7 +274,20 @@ impl PieceTree {
                 }
             }
         };
-        let world = self.tracker.model().skeleton.world_matrices(&fit.pose);
+        if self.find_returning && self.find_returning_parts(points) {
+            // The frame fitted again from the parts turned onto their data (no motion to
+            // continue: the turn is where the frame starts).
+            let turned = self.tracker.pose().clone();
+            self.tracker.resume_from(Some(&turned), &turned);
+            if self.tracker.track(points).is_err() {
+                self.tracker.resume_from(None, &turned);
+            }
+        }
+        let world = self
+            .tracker
+            .model()
+            .skeleton
+            .world_matrices(self.tracker.pose());
         let now: Vec<RigidMotion> = self
             .piece_joint
             .iter()
@@ -281,8 +314,19 @@ impl PieceTree {
     /// Puts the tree where a surface fit left the pieces: each piece moved by the mean of
     /// its patches' motions (their rotations averaged by area, then the translation that
     /// fits their centres); the tracker continues the motion from the last synced pose.
-    pub fn sync(&mut self, model: &PatchModel, pose: &PatchPose) {
+    pub fn sync(&mut self, model: &PatchModel, pose: &PatchPose, support: &[f64]) {
         let pieces = self.pieces();
+        // Each piece's support: its patches' support, weighted by area.
+        let mut seen = vec![(0.0, 0.0); pieces];
+        for (k, &s) in support.iter().enumerate().take(model.patch_count()) {
+            let c = &mut seen[model.component[k] as usize];
+            c.0 += s * model.area[k];
+            c.1 += model.area[k];
+        }
+        self.piece_support = seen
+            .iter()
+            .map(|&(s, a)| if a > 0.0 { s / a } else { 1.0 })
+            .collect();
         let mut turn = vec![Matrix3::zeros(); pieces];
         let mut area = vec![0.0; pieces];
         for k in 0..model.patch_count() {
@@ -317,6 +361,12 @@ impl PieceTree {
             return;
         }
         let synced = self.tracker.model().skeleton.pose_from_world(&world);
+        if let Some(before) = self.synced.as_mut() {
+            // A part found again did not move there at that speed.
+            for j in self.returned.drain(..) {
+                before.local[j] = synced.local[j];
+            }
+        }
         self.tracker.resume_from(self.synced.as_ref(), &synced);
         self.synced = Some(synced);
         self.last = now;
@@ -400,7 +450,7 @@ mod tests {
 
     /// A body (a block 1 x 0.4 x 0.4) and an arm (0.6 x 0.15 x 0.15) touching the body's
     /// right face at (0.5, 0, 0): two pieces, the arm's vertices after the body's.
-    fn body_and_arm() -> (TriMesh, usize) {
+    pub(super) fn body_and_arm() -> (TriMesh, usize) {
         let mut mesh = block(
             Vector3::new(-0.5, -0.2, -0.2),
             Vector3::new(0.5, 0.2, 0.2),
@@ -419,7 +469,7 @@ mod tests {
     }
 
     /// The arm turned by `angle` about the z axis through the contact.
-    fn arm_turned(mesh: &TriMesh, body: usize, angle: f64) -> Vec<Point3> {
+    pub(super) fn arm_turned(mesh: &TriMesh, body: usize, angle: f64) -> Vec<Point3> {
         let turn = nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), angle);
         let pivot = Point3::new(0.5, 0.0, 0.0);
         mesh.vertices

@@ -6,7 +6,7 @@ use super::texture::TexturePoint;
 use super::{ArticulatedModel, TrackError, TrackOptions, Tracker, explained_share};
 use crate::engine::{Candidates, EmStep, PointGrid, SubtreeMoments};
 use crate::kinematics::{DofLayout, ForwardKinematics};
-use crate::math::Point3;
+use crate::math::{Matrix3, Point3, linear_part, nearest_rotation, rotation_quat};
 use crate::skeleton::Pose;
 
 impl Tracker {
@@ -101,6 +101,31 @@ impl Tracker {
             &mut self.grid,
             &mut self.em,
         )
+    }
+
+    /// Each texture point's dominant joint.
+    pub(crate) fn texture_joints(&self) -> impl Iterator<Item = usize> + '_ {
+        self.texture.iter().map(|t| t.joints[0])
+    }
+
+    /// Turns `joint` and everything it carries by `turn` (world axes) about the joint's
+    /// place, keeping the motion the next frame continues; the texture points it carries
+    /// count as seen (the turn put them on data).
+    pub(crate) fn turn_joint(&mut self, joint: usize, turn: &Matrix3) {
+        let skeleton = &self.model.skeleton;
+        let parent = match skeleton.joint(joint).parent {
+            Some(p) => nearest_rotation(&linear_part(&skeleton.world_matrices(&self.pose)[p])),
+            None => Matrix3::identity(),
+        };
+        let local = &mut self.pose.local[joint].rotation;
+        *local = rotation_quat(&(parent.transpose() * turn * parent)) * *local;
+        if self.seen.len() == self.texture.len() {
+            for (seen, t) in self.seen.iter_mut().zip(&self.texture) {
+                if skeleton.is_ancestor_or_self(joint, t.joints[0]) {
+                    *seen = true;
+                }
+            }
+        }
     }
 
     /// The texture points' world positions in the current pose.
