@@ -25,6 +25,7 @@ use crate::track::{ArticulatedModel, Tracker};
 /// The data points (evenly strided) on which the fits from the two predictions are compared.
 const CHOICE_POINTS: usize = 500;
 
+/// A rigid motion `x -> rotation * x + translation`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RigidMotion {
     pub rotation: Matrix3,
@@ -241,7 +242,7 @@ impl PieceTree {
         } else {
             points
         };
-        let _fit = match self.second_prediction {
+        let fit = match self.second_prediction {
             None => self.tracker.track(points).ok()?,
             Some(second) => {
                 // The same frame from two predictions, in parallel (each fit is serial).
@@ -274,20 +275,22 @@ impl PieceTree {
                 }
             }
         };
-        if self.find_returning && self.find_returning_parts(points) {
+        let pose = if self.find_returning && self.find_returning_parts(points) {
             // The frame fitted again from the parts turned onto their data (no motion to
             // continue: the turn is where the frame starts).
             let turned = self.tracker.pose().clone();
             self.tracker.resume_from(Some(&turned), &turned);
-            if self.tracker.track(points).is_err() {
-                self.tracker.resume_from(None, &turned);
+            match self.tracker.track(points) {
+                Ok(refit) => refit.pose,
+                Err(_) => {
+                    self.tracker.resume_from(None, &turned);
+                    turned
+                }
             }
-        }
-        let world = self
-            .tracker
-            .model()
-            .skeleton
-            .world_matrices(self.tracker.pose());
+        } else {
+            fit.pose
+        };
+        let world = self.tracker.model().skeleton.world_matrices(&pose);
         let now: Vec<RigidMotion> = self
             .piece_joint
             .iter()
@@ -375,11 +378,15 @@ impl PieceTree {
     /// Moves every patch of `pose` by its piece's motion `steps`.
     pub fn move_patches(model: &PatchModel, pose: &mut PatchPose, steps: &[RigidMotion]) {
         for k in 0..model.patch_count() {
-            let step = &steps[model.component[k] as usize];
-            pose.rotation[k] = step.rotation * pose.rotation[k];
-            pose.centre[k] = Point3::from(step.rotation * pose.centre[k].coords + step.translation);
+            move_patch(pose, k, &steps[model.component[k] as usize]);
         }
     }
+}
+
+/// Moves patch `k` of `pose` by `step`.
+fn move_patch(pose: &mut PatchPose, k: usize, step: &RigidMotion) {
+    pose.rotation[k] = step.rotation * pose.rotation[k];
+    pose.centre[k] = Point3::from(step.rotation * pose.centre[k].coords + step.translation);
 }
 
 /// The pieces' joints as they are added, parents first.

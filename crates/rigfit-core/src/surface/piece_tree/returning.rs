@@ -20,13 +20,13 @@ use crate::surface::model::{PatchModel, PatchPose};
 /// data: a hidden part's patches still explain some data nearby (0.57-0.71 on the cheetah's
 /// hidden foot, 0.88-1.0 on its pieces in view).
 const LOST_SUPPORT: f64 = 0.75;
-/// Returning data holds at least this many points,
-const MIN_RETURNING_POINTS: usize = 12;
 /// A lost piece (with what it carries) is searched for only when it would hold at least
 /// this share of the frame's points were it all in view: a smaller part's own points are
 /// too few to tell its data from its neighbours' (the rodent's toes and tail vertebrae,
 /// 0.2-1% each, were turned onto other parts' data; BENCHMARKS.md, issue 22, session 29).
 const RETURNING_PART_SHARE: f64 = 0.015;
+/// Returning data holds at least this many points,
+const MIN_RETURNING_POINTS: usize = 12;
 /// and at least this share of the points the lost piece (with what it carries) would have
 /// were it all in view.
 const RETURNING_DATA_SHARE: f64 = 0.5;
@@ -184,10 +184,7 @@ impl PieceTree {
         for k in 0..model.patch_count() {
             let piece = model.component[k] as usize;
             if pieces.contains(&piece) {
-                let step = &steps[piece];
-                pose.rotation[k] = step.rotation * pose.rotation[k];
-                pose.centre[k] =
-                    Point3::from(step.rotation * pose.centre[k].coords + step.translation);
+                super::move_patch(pose, k, &steps[piece]);
             }
         }
     }
