@@ -81,7 +81,8 @@ pub struct PieceTree {
     /// The reference's surface area.
     surface_area: f64,
     /// Each piece's support at the end of the last frame (its patches' share of the data
-    /// explained, [`super::solve::patch_support`], weighted by area).
+    /// explained, [`super::solve::patch_support`], weighted by area), kept when looking for
+    /// returning parts.
     piece_support: Vec<f64>,
     /// The joints turned onto returning data this frame ([`PieceTree::sync`] keeps the turn
     /// out of the motion the next frame continues).
@@ -319,17 +320,19 @@ impl PieceTree {
     /// fits their centres); the tracker continues the motion from the last synced pose.
     pub fn sync(&mut self, model: &PatchModel, pose: &PatchPose, support: &[f64]) {
         let pieces = self.pieces();
-        // Each piece's support: its patches' support, weighted by area.
-        let mut seen = vec![(0.0, 0.0); pieces];
-        for (k, &s) in support.iter().enumerate().take(model.patch_count()) {
-            let c = &mut seen[model.component[k] as usize];
-            c.0 += s * model.area[k];
-            c.1 += model.area[k];
+        if self.find_returning {
+            // Each piece's support: its patches' support, weighted by area.
+            let mut seen = vec![(0.0, 0.0); pieces];
+            for (k, &s) in support.iter().enumerate().take(model.patch_count()) {
+                let c = &mut seen[model.component[k] as usize];
+                c.0 += s * model.area[k];
+                c.1 += model.area[k];
+            }
+            self.piece_support = seen
+                .iter()
+                .map(|&(s, a)| if a > 0.0 { s / a } else { 1.0 })
+                .collect();
         }
-        self.piece_support = seen
-            .iter()
-            .map(|&(s, a)| if a > 0.0 { s / a } else { 1.0 })
-            .collect();
         let mut turn = vec![Matrix3::zeros(); pieces];
         let mut area = vec![0.0; pieces];
         for k in 0..model.patch_count() {

@@ -68,13 +68,13 @@ impl PieceTree {
         let model_grid = PointGrid::new(&texture, explained_distance);
         let unexplained: Vec<Point3> = points
             .iter()
-            .filter(|p| !any_within(&model_grid, p, explained_distance))
+            .filter(|p| model_grid.nearest_within(p, explained_distance).is_none())
             .copied()
             .collect();
         let old = PointGrid::new(&self.last_unexplained, new_distance);
         let returning: Vec<Point3> = unexplained
             .iter()
-            .filter(|p| !any_within(&old, p, new_distance))
+            .filter(|p| old.nearest_within(p, new_distance).is_none())
             .copied()
             .collect();
         self.last_unexplained = unexplained;
@@ -140,18 +140,15 @@ impl PieceTree {
                 .iter()
                 .map(|t| pivot + best.turn * (t - pivot))
                 .collect();
-            let (others, turned, before) = (
-                PointGrid::new(&others, near),
-                PointGrid::new(&turned, near),
-                PointGrid::new(&texture, near),
-            );
-            let mut gain = 0.0;
+            let (others, turned) = (PointGrid::new(&others, near), PointGrid::new(&turned, near));
+            let near_any = |grid: &PointGrid, p: &Point3| grid.nearest_within(p, near).is_some();
+            let mut gain: i64 = 0;
             for p in points.iter().filter(|p| (*p - pivot).norm() <= reach) {
-                let after = any_within(&others, p, near) || any_within(&turned, p, near);
-                gain +=
-                    f64::from(u8::from(after)) - f64::from(u8::from(any_within(&before, p, near)));
+                let after = near_any(&others, p) || near_any(&turned, p);
+                // Before the turn: the whole texture, as `model_grid` holds it.
+                gain += i64::from(after) - i64::from(near_any(&model_grid, p));
             }
-            if gain >= RETURN_GAIN * expected {
+            if gain as f64 >= RETURN_GAIN * expected {
                 turns.push((j, best.turn));
             }
         }
@@ -188,13 +185,6 @@ impl PieceTree {
             }
         }
     }
-}
-
-/// Whether any point of `grid` lies within `radius` of `p`.
-fn any_within(grid: &PointGrid, p: &Point3, radius: f64) -> bool {
-    let mut found = false;
-    grid.for_each_within(p, radius, |_, _| found = true);
-    found
 }
 
 /// Turns tried: the piece's centroid turned toward the data's, then twisted about that
