@@ -14,8 +14,9 @@
 //! `MERGE`, `TOLERANCE`, `STRIDE`, `CANDIDATES`, `CUTOFF`, `HOLD`, `COARSE_ITERATIONS`,
 //! `FAST`, `COARSE_STIFFNESS`, `ANCHOR`, `STIFFNESS`, `CONTACT_WIDTH`, `PART_GAP`,
 //! `POINTS_PER_VERTEX` set those
-//! options; `NO_PIECE_TREE=1` without the pieces' tree, `TREE_POINTS`, `TREE_STRIDE`,
-//! `TREE_STEPS`, `TREE_FINAL`, `TREE_SIGMA` its model points, data stride, annealing steps,
+//! options; `NO_PIECE_TREE=1` without the pieces' tree, `TREE_POINTS`,
+//! `TREE_POINTS_PER_PIECE`, `TREE_STRIDE`, `TREE_STEPS`, `TREE_FINAL`, `TREE_SIGMA` its
+//! model points (at least, and a piece), data stride, annealing steps,
 //! iterations at the floor and first kernel, `TREE_SECOND=1.0` the tree tracked from a
 //! second prediction too and `TREE_CHOICE` the width choosing between the two; `RETURNING=1`
 //! parts coming back into view searched for; `VERBOSE=1`
@@ -70,6 +71,7 @@ fn main() {
     env_knobs::set("POINTS_PER_VERTEX", &mut options.points_per_vertex);
     if let Some(tree) = options.piece_tree.as_mut() {
         env_knobs::set_count("TREE_POINTS", &mut tree.model_points);
+        env_knobs::set_count("TREE_POINTS_PER_PIECE", &mut tree.model_points_per_piece);
         env_knobs::set_count("TREE_STRIDE", &mut tree.data_stride);
         env_knobs::set_count("TREE_STEPS", &mut tree.track.anneal_steps);
         env_knobs::set_count("TREE_FINAL", &mut tree.track.final_em_iterations);

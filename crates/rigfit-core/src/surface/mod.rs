@@ -162,8 +162,13 @@ pub struct SurfaceOptions {
 pub struct PieceTreeOptions {
     /// The articulated tracker's options (its lengths are fractions of the object's height).
     pub track: crate::track::TrackOptions,
-    /// Points sampled on the pieces' surface for the articulated tracker.
+    /// Points sampled on the pieces' surface for the articulated tracker: at least this
+    /// many,
     pub model_points: usize,
+    /// and this many a piece, up to [`piece_tree::MAX_MODEL_POINTS`] (a fingertip of a
+    /// 41-piece hand drew about 12 of 1,500 and was lost while in view; BENCHMARKS.md, issue
+    /// 22, session 30).
+    pub model_points_per_piece: usize,
     /// The articulated tracker matches one point of a frame in this many.
     pub data_stride: usize,
     /// The patches' first `sigma` (fraction of the diagonal) in a frame that starts from the
@@ -199,6 +204,7 @@ impl Default for PieceTreeOptions {
                 ..Default::default()
             },
             model_points: 1500,
+            model_points_per_piece: 150,
             data_stride: 4,
             initial_sigma: 0.015,
             second_prediction: None,
