@@ -13,6 +13,7 @@ use nalgebra::{Rotation3, Unit};
 use super::PieceTree;
 use super::RigidMotion;
 use crate::engine::PointGrid;
+use crate::geometry::centroid;
 use crate::math::{Matrix3, Point3, Vector3, nearest_rotation, translation_part};
 use crate::surface::model::{PatchModel, PatchPose};
 
@@ -233,9 +234,8 @@ pub(super) fn best_turn(
     if model.is_empty() || data.is_empty() {
         return best;
     }
-    let centroid = |p: &[Point3]| p.iter().map(|x| x.coords).sum::<Vector3>() / p.len() as f64;
-    let from = centroid(model) - pivot.coords;
-    let to = centroid(data) - pivot.coords;
+    let from = centroid(model) - pivot;
+    let to = centroid(data) - pivot;
     let toward = Rotation3::rotation_between(&from, &to).unwrap_or_else(|| {
         // Opposite directions: half a turn about any axis across them.
         let across = from.cross(&Vector3::x()).try_normalize(1e-12);
