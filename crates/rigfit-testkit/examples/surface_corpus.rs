@@ -15,9 +15,11 @@
 //! `FAST`, `COARSE_STIFFNESS`, `ANCHOR`, `STIFFNESS`, `CONTACT_WIDTH`, `PART_GAP`,
 //! `POINTS_PER_VERTEX` set those
 //! options; `NO_PIECE_TREE=1` without the pieces' tree, `TREE_POINTS`,
-//! `TREE_POINTS_PER_PIECE`, `TREE_STRIDE`, `TREE_STEPS`, `TREE_FINAL`, `TREE_SIGMA` its
-//! model points (at least, and a piece), data stride, annealing steps,
-//! iterations at the floor and first kernel, `TREE_SECOND=1.0` the tree tracked from a
+//! `TREE_POINTS_PER_PIECE`, `TREE_STRIDE`, `TREE_STEPS`, `TREE_FINAL`, `TREE_SIGMA`,
+//! `TREE_PRIOR`, `TREE_PREDICTION`, `TREE_MOTION` its model points (at least, and a piece),
+//! data stride, annealing steps, iterations at the floor, the patches' first kernel after
+//! it, the weight of its prior toward each frame's start, the share of the last motion it
+//! continues and its first kernel, `TREE_SECOND=1.0` the tree tracked from a
 //! second prediction too and `TREE_CHOICE` the width choosing between the two; `RETURNING=1`
 //! parts coming back into view searched for; `VERBOSE=1`
 //! every frame's mean and worst vertex and the truth's steps, `VERBOSE=2` also each piece's
@@ -77,6 +79,9 @@ fn main() {
         env_knobs::set_count("TREE_FINAL", &mut tree.track.final_em_iterations);
         env_knobs::set("TREE_SIGMA", &mut tree.initial_sigma);
         env_knobs::set("TREE_CHOICE", &mut tree.choice_sigma);
+        env_knobs::set("TREE_PRIOR", &mut tree.track.prior_weight);
+        env_knobs::set("TREE_PREDICTION", &mut tree.track.prediction);
+        env_knobs::set("TREE_MOTION", &mut tree.track.max_motion);
         if std::env::var("RETURNING").is_ok() {
             tree.find_returning_parts = true;
         }

@@ -2,8 +2,15 @@
 //! ([`Candidates`]): found once in a [`PointGrid`] within the kernel's cutoff plus a margin,
 //! and reused while the model moves less than the margin.
 
+use rayon::prelude::*;
+
 use crate::engine::spatial::PointGrid;
 use crate::math::Point3;
+
+/// Clouds of at least this many data points are searched in parallel, in runs of
+/// [`FOUND_RUN`].
+const FOUND_IN_PARALLEL: usize = 512;
+const FOUND_RUN: usize = 256;
 
 /// Kernel cutoff in units of `sigma`: there a model point's kernel, `exp(-3.1)`, is about
 /// 1% of the outlier term `c` (Dewaele eq. 17).
@@ -26,9 +33,31 @@ impl Candidates {
         self.start.clear();
         self.model.clear();
         self.start.push(0);
-        for y in data {
-            grid.for_each_within(y, radius, |i, _| self.model.push(i as u32));
-            self.start.push(self.model.len() as u32);
+        if data.len() < FOUND_IN_PARALLEL || rayon::current_num_threads() < 2 {
+            for y in data {
+                grid.for_each_within(y, radius, |i, _| self.model.push(i as u32));
+                self.start.push(self.model.len() as u32);
+            }
+            return;
+        }
+        // Runs of data points searched in parallel, their lists joined in order: the same
+        // lists as one pass on the calling thread.
+        let grid = &*grid;
+        let runs: Vec<(Vec<u32>, Vec<u32>)> = data
+            .par_chunks(FOUND_RUN)
+            .map(|ys| {
+                let (mut found, mut ends) = (Vec::new(), Vec::with_capacity(ys.len()));
+                for y in ys {
+                    grid.for_each_within(y, radius, |i, _| found.push(i as u32));
+                    ends.push(found.len() as u32);
+                }
+                (found, ends)
+            })
+            .collect();
+        for (found, ends) in runs {
+            let base = self.model.len() as u32;
+            self.model.extend_from_slice(&found);
+            self.start.extend(ends.iter().map(|&e| base + e));
         }
     }
 
@@ -51,4 +80,49 @@ impl Candidates {
 /// points move by up to `margin`.
 pub fn candidate_radius(sigma: f64, margin: f64) -> f64 {
     CUTOFF_SIGMAS * sigma + margin
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Searched on one thread or several, every data point gets the same list, in order.
+    #[test]
+    fn lists_found_in_parallel_are_the_lists_found_in_turn() {
+        let model: Vec<Point3> = (0..500)
+            .map(|i| Point3::new((i % 25) as f64 * 0.01, (i / 25) as f64 * 0.01, 0.0))
+            .collect();
+        let data: Vec<Point3> = (0..2000)
+            .map(|i| {
+                let t = i as f64;
+                Point3::new(
+                    (t * 0.31).sin() * 0.12 + 0.12,
+                    (t * 0.07).cos() * 0.1 + 0.1,
+                    0.0,
+                )
+            })
+            .collect();
+        let find = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool");
+            pool.install(|| {
+                let mut found = Candidates::default();
+                found.find(&data, &model, 0.025, &mut PointGrid::default());
+                found
+            })
+        };
+        let (one, two) = (find(1), find(2));
+        assert!(one.len() > data.len());
+        assert_eq!(one.start, two.start);
+        assert_eq!(one.model, two.model);
+        for j in [0, 255, 256, 1999] {
+            assert!(
+                one.of(j)
+                    .iter()
+                    .all(|&i| { (model[i as usize] - data[j]).norm() <= 0.025 * (1.0 + 1e-12) })
+            );
+        }
+    }
 }

@@ -11,8 +11,12 @@ use super::posterior::{Evidence, GaussianKernel};
 use crate::engine::spatial::PointGrid;
 use crate::math::{Point3, Vector3};
 
-/// Data points per parallel chunk (smaller clouds run on the calling thread).
+/// Data points per parallel chunk of sums (smaller clouds are summed on the calling thread).
 const PARALLEL_CHUNK: usize = 4096;
+/// Clouds of at least this many points and at most [`PARALLEL_CHUNK`] find their posteriors
+/// in parallel, in [`VISIT_RUNS`] runs, and sum them on the calling thread.
+const VISITED_IN_PARALLEL: usize = 512;
+const VISIT_RUNS: usize = 4;
 
 /// What one E-step gives the M-step.
 #[derive(Clone, Debug, Default)]
@@ -164,41 +168,85 @@ fn em_step_over(
     out.best.clear();
     out.best.resize(data.len(), u32::MAX);
 
-    // For one data point: its posteriors (eq. 17) into `sums`; returns (inlier, best).
-    let visit = |j: usize, y: &Point3, sums: &mut Sums, scratch: &mut Vec<(usize, f64)>| {
-        scratch.clear();
+    // For one data point: its posteriors (eq. 17), each neighbour's `alpha_ij * w_j` into
+    // `found`; returns (inlier, best).
+    let posteriors_of = |j: usize, y: &Point3, found: &mut Vec<(usize, f64)>| {
+        found.clear();
         let mut evidence = Evidence::new();
         neighbours.each(j, y, |i, d2| {
             if d2 <= cutoff2 {
                 let e = model_weight.map_or(1.0, |w| w[i]) * kernel.fast(d2);
                 evidence.add(e);
-                scratch.push((i, e));
+                found.push((i, e));
             }
         });
         if evidence.total() == 0.0 {
+            found.clear();
             return (0.0, u32::MAX);
         }
         let wj = data_weight.map_or(1.0, |w| w[j]);
         let norm = evidence.normaliser(outlier_c);
         let mut best = (0.0, u32::MAX);
-        for &(i, e) in scratch.iter() {
-            let a = e * norm;
-            sums.lambda[i] += a * wj;
-            sums.moment[i] += y.coords * (a * wj);
+        for (i, e) in found.iter_mut() {
+            let a = *e * norm;
             if a > best.0 {
-                best = (a, i as u32);
+                best = (a, *i as u32);
             }
+            *e = a * wj;
         }
         (evidence.total() * norm, best.1)
     };
+    // A point's posteriors into `sums` (eq. 20's lambda and moment).
+    let add = |sums: &mut Sums, y: &Point3, i: usize, w: f64| {
+        sums.lambda[i] += w;
+        sums.moment[i] += y.coords * w;
+    };
+    let visit = |j: usize, y: &Point3, sums: &mut Sums, found: &mut Vec<(usize, f64)>| {
+        let (inlier, best) = posteriors_of(j, y, found);
+        for &(i, w) in found.iter() {
+            add(sums, y, i, w);
+        }
+        (inlier, best)
+    };
 
-    let sums = if data.len() <= PARALLEL_CHUNK {
+    let sums = if data.len() < VISITED_IN_PARALLEL || rayon::current_num_threads() < 2 {
         let mut sums = Sums::new(n);
         let mut scratch = Vec::new();
         for (j, y) in data.iter().enumerate() {
             let (a, b) = visit(j, y, &mut sums, &mut scratch);
             out.inlier[j] = a;
             out.best[j] = b;
+        }
+        sums
+    } else if data.len() <= PARALLEL_CHUNK {
+        // The points' posteriors found in parallel, then summed in order: the same sums,
+        // to the last bit, as one pass on the calling thread.
+        let run = data.len().div_ceil(VISIT_RUNS);
+        // Per run, each point's posteriors after a marker (`u32::MAX`).
+        let runs: Vec<Vec<(u32, f64)>> = data
+            .par_chunks(run)
+            .zip(out.inlier.par_chunks_mut(run))
+            .zip(out.best.par_chunks_mut(run))
+            .enumerate()
+            .map(|(c, ((ys, inl), best))| {
+                let mut posteriors = Vec::with_capacity(16 * ys.len());
+                let mut found = Vec::new();
+                for (k, y) in ys.iter().enumerate() {
+                    (inl[k], best[k]) = posteriors_of(c * run + k, y, &mut found);
+                    posteriors.push((u32::MAX, 0.0));
+                    posteriors.extend(found.iter().map(|&(i, w)| (i as u32, w)));
+                }
+                posteriors
+            })
+            .collect();
+        let mut sums = Sums::new(n);
+        let mut points = data.iter();
+        let mut y = &data[0];
+        for (i, w) in runs.iter().flatten().copied() {
+            match i {
+                u32::MAX => y = points.next().expect("a marker per point"),
+                i => add(&mut sums, y, i as usize, w),
+            }
         }
         sums
     } else {
@@ -288,6 +336,55 @@ mod tests {
         // inlier only where the model is dense at the scale of sigma.
         assert_eq!(out.inlier_count(), 0);
         assert!(out.inlier[0] > 0.1);
+    }
+
+    /// A cloud small enough to be summed on one thread gives the same bits whether its
+    /// posteriors were found on one thread or several.
+    #[test]
+    fn posteriors_found_in_parallel_sum_to_the_same_bits() {
+        let model: Vec<Point3> = (0..400)
+            .map(|i| Point3::new((i % 20) as f64 * 0.01, (i / 20) as f64 * 0.01, 0.0))
+            .collect();
+        let data: Vec<Point3> = (0..3000)
+            .map(|i| {
+                let t = i as f64;
+                Point3::new(
+                    (t * 0.37).sin() * 0.1 + 0.1,
+                    (t * 0.11).cos() * 0.1 + 0.1,
+                    0.002,
+                )
+            })
+            .collect();
+        let weights: Vec<f64> = (0..data.len()).map(|i| 1.0 + (i % 3) as f64).collect();
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool");
+            pool.install(|| {
+                let mut grid = PointGrid::default();
+                let mut out = EmStep::default();
+                let data = WeightedPoints {
+                    points: &data,
+                    weights: Some(&weights),
+                };
+                em_step(
+                    data,
+                    WeightedPoints::unit(&model),
+                    0.015,
+                    3.76,
+                    &mut grid,
+                    &mut out,
+                );
+                out
+            })
+        };
+        let (one, two) = (run(1), run(2));
+        assert!(one.lambda.iter().any(|&l| l > 0.0));
+        assert_eq!(one.lambda, two.lambda);
+        assert_eq!(one.target, two.target);
+        assert_eq!(one.inlier, two.inlier);
+        assert_eq!(one.best, two.best);
     }
 
     #[test]
