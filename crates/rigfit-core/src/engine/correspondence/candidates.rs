@@ -7,9 +7,10 @@ use rayon::prelude::*;
 use crate::engine::spatial::PointGrid;
 use crate::math::Point3;
 
-/// Clouds of at least this many data points are searched in parallel, in runs of
-/// [`FOUND_RUN`].
+/// Clouds of at least this many data points are searched in parallel (smaller ones on the
+/// calling thread),
 const FOUND_IN_PARALLEL: usize = 512;
+/// in runs of this many points.
 const FOUND_RUN: usize = 256;
 
 /// Kernel cutoff in units of `sigma`: there a model point's kernel, `exp(-3.1)`, is about

@@ -14,8 +14,9 @@ use crate::math::{Point3, Vector3};
 /// Data points per parallel chunk of sums (smaller clouds are summed on the calling thread).
 const PARALLEL_CHUNK: usize = 4096;
 /// Clouds of at least this many points and at most [`PARALLEL_CHUNK`] find their posteriors
-/// in parallel, in [`VISIT_RUNS`] runs, and sum them on the calling thread.
+/// in parallel and sum them on the calling thread (smaller ones run on the calling thread).
 const VISITED_IN_PARALLEL: usize = 512;
+/// The runs such a cloud's posteriors are found in: enough for two threads to share.
 const VISIT_RUNS: usize = 4;
 
 /// What one E-step gives the M-step.
