@@ -85,30 +85,16 @@ pub fn candidate_radius(sigma: f64, margin: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
+    use super::super::test_clouds::{on_threads, square_grid, winding_cloud};
     use super::*;
 
     /// Searched on one thread or several, every data point gets the same list, in order.
     #[test]
     fn lists_found_in_parallel_are_the_lists_found_in_turn() {
-        let model: Vec<Point3> = (0..500)
-            .map(|i| Point3::new((i % 25) as f64 * 0.01, (i / 25) as f64 * 0.01, 0.0))
-            .collect();
-        let data: Vec<Point3> = (0..2000)
-            .map(|i| {
-                let t = i as f64;
-                Point3::new(
-                    (t * 0.31).sin() * 0.12 + 0.12,
-                    (t * 0.07).cos() * 0.1 + 0.1,
-                    0.0,
-                )
-            })
-            .collect();
+        let model = square_grid(500, 25);
+        let data = winding_cloud(2000, (0.31, 0.07), (0.12, 0.1), 0.0);
         let find = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .expect("pool");
-            pool.install(|| {
+            on_threads(threads, || {
                 let mut found = Candidates::default();
                 found.find(&data, &model, 0.025, &mut PointGrid::default());
                 found

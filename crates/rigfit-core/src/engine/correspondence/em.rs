@@ -280,6 +280,7 @@ fn em_step_over(
 
 #[cfg(test)]
 mod tests {
+    use super::super::test_clouds::{on_threads, square_grid, winding_cloud};
     use super::*;
     use crate::engine::correspondence::DEWAELE_OUTLIER_CONSTANT;
 
@@ -343,26 +344,11 @@ mod tests {
     /// posteriors were found on one thread or several.
     #[test]
     fn posteriors_found_in_parallel_sum_to_the_same_bits() {
-        let model: Vec<Point3> = (0..400)
-            .map(|i| Point3::new((i % 20) as f64 * 0.01, (i / 20) as f64 * 0.01, 0.0))
-            .collect();
-        let data: Vec<Point3> = (0..3000)
-            .map(|i| {
-                let t = i as f64;
-                Point3::new(
-                    (t * 0.37).sin() * 0.1 + 0.1,
-                    (t * 0.11).cos() * 0.1 + 0.1,
-                    0.002,
-                )
-            })
-            .collect();
+        let model = square_grid(400, 20);
+        let data = winding_cloud(3000, (0.37, 0.11), (0.1, 0.1), 0.002);
         let weights: Vec<f64> = (0..data.len()).map(|i| 1.0 + (i % 3) as f64).collect();
         let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .expect("pool");
-            pool.install(|| {
+            on_threads(threads, || {
                 let mut grid = PointGrid::default();
                 let mut out = EmStep::default();
                 let data = WeightedPoints {
@@ -390,9 +376,7 @@ mod tests {
 
     #[test]
     fn parallel_and_serial_agree() {
-        let model: Vec<Point3> = (0..300)
-            .map(|i| Point3::new((i % 17) as f64 * 0.01, (i / 17) as f64 * 0.01, 0.0))
-            .collect();
+        let model = square_grid(300, 17);
         let data: Vec<Point3> = (0..10_000)
             .map(|i| Point3::new((i % 97) as f64 * 0.0017, (i / 97) as f64 * 0.0017, 0.003))
             .collect();

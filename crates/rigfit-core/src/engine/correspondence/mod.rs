@@ -10,6 +10,9 @@ pub mod em;
 pub mod posterior;
 pub mod softassign;
 
+#[cfg(test)]
+mod test_clouds;
+
 pub use candidates::{Candidates, candidate_radius};
 pub use em::{EmStep, WeightedPoints, em_step, em_step_with};
 pub use posterior::{DEWAELE_OUTLIER_CONSTANT, Evidence, GaussianKernel, exp_negative};
