@@ -21,7 +21,9 @@
 //! it, the weight of its prior toward each frame's start, the share of the last motion it
 //! continues and its first kernel, `TREE_SECOND=1.0` the tree tracked from a
 //! second prediction too and `TREE_CHOICE` the width choosing between the two; `RETURNING=1`
-//! parts coming back into view searched for; `VERBOSE=1`
+//! parts coming back into view searched for; `REFIT_BELOW=R` a frame whose pieces' coverage
+//! falls below R times the last frame's fitted again from other starts (`none`: never);
+//! `VERBOSE=1`
 //! every frame's mean and worst vertex and the truth's steps, `VERBOSE=2` also each piece's
 //! mean in the worst frame; `PLOT=DIR` writes DIR/surface_parts_frames.png, each object's
 //! mean per frame, `_paper` with `PAPER=1`)
@@ -84,6 +86,9 @@ fn main() {
         env_knobs::set("TREE_MOTION", &mut tree.track.max_motion);
         if std::env::var("RETURNING").is_ok() {
             tree.find_returning_parts = true;
+        }
+        if let Ok(v) = std::env::var("REFIT_BELOW") {
+            tree.refit_below = v.parse().ok();
         }
         if let Ok(v) = std::env::var("TREE_SECOND") {
             tree.second_prediction = v.parse().ok();

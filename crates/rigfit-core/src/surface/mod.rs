@@ -193,6 +193,16 @@ pub struct PieceTreeOptions {
     /// walker's leg onto the wrong data on the held-out half (28 sequences within the bar
     /// against 29; BENCHMARKS.md, issue 22, session 29).
     pub find_returning_parts: bool,
+    /// With one start (`second_prediction` `None`): when the tree's fit lays the pieces on
+    /// less data than this share of the last frame's (the share of each piece within
+    /// `choice_sigma` of a point, averaged over the pieces), the frame is fitted again, in
+    /// parallel, without the motion continued, with all of it, and from a kernel three
+    /// times as wide, and the fit covering most is kept (`piece_tree::lost_parts`). `None`
+    /// turns it off. 0.8, from Fetch's coverage at twice the issue's pace (tuning half: it
+    /// falls to 0.70 of the last frame's where the arm is lost, to 0.83 at worst elsewhere):
+    /// the tuning half is unchanged at the issue's pace; the held-out manipulator's mean
+    /// falls from 2.39% to 1.73% of the diagonal (BENCHMARKS.md, issue 22, session 32).
+    pub refit_below: Option<f64>,
 }
 
 impl Default for PieceTreeOptions {
@@ -210,6 +220,7 @@ impl Default for PieceTreeOptions {
             second_prediction: None,
             choice_sigma: 0.02,
             find_returning_parts: false,
+            refit_below: Some(0.8),
         }
     }
 }

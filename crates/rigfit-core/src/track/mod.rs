@@ -34,6 +34,7 @@ pub use limb_swings::LimbSwingOptions;
 pub use model::{bind_pose, texture_count};
 pub use options::{TextureSource, TrackOptions};
 pub use take::{FrameStart, StartMode, Take, TakeFrame, TakeOptions};
+pub(crate) use tracker::TrackerStart;
 
 /// Why a frame cannot be tracked.
 #[derive(Debug, thiserror::Error, PartialEq)]

@@ -9,6 +9,15 @@ use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Matrix3, Point3, linear_part, nearest_rotation, rotation_quat};
 use crate::skeleton::Pose;
 
+/// What a frame starts from ([`Tracker::frame_start`]).
+#[derive(Clone, Debug)]
+pub(crate) struct TrackerStart {
+    pose: Pose,
+    previous: Option<Pose>,
+    seen: Vec<bool>,
+    lambda: f64,
+}
+
 impl Tracker {
     /// A tracker starting from the model's start pose.
     pub fn new(model: ArticulatedModel, options: TrackOptions) -> Result<Self, TrackError> {
@@ -69,6 +78,25 @@ impl Tracker {
     pub fn resume_from(&mut self, previous: Option<&Pose>, pose: &Pose) {
         self.pose.clone_from(pose);
         self.previous = previous.cloned();
+    }
+
+    /// What the next frame starts from: the pose, the motion it continues, the texture
+    /// points seen and the damping ([`Tracker::restart_from`] tracks a frame again from it).
+    pub(crate) fn frame_start(&self) -> TrackerStart {
+        TrackerStart {
+            pose: self.pose.clone(),
+            previous: self.previous.clone(),
+            seen: self.seen.clone(),
+            lambda: self.lambda,
+        }
+    }
+
+    /// Puts the tracker back where `start` ([`Tracker::frame_start`]) found it.
+    pub(crate) fn restart_from(&mut self, start: &TrackerStart) {
+        self.pose.clone_from(&start.pose);
+        self.previous.clone_from(&start.previous);
+        self.seen.clone_from(&start.seen);
+        self.lambda = start.lambda;
     }
 
     /// Sets the pose the next frame starts from (forgetting the motion so far).

@@ -121,10 +121,37 @@ impl PointGrid {
 
     /// Calls `f(index, squared distance)` for every point within `radius` of `q`.
     pub fn for_each_within(&self, q: &Point3, radius: f64, mut f: impl FnMut(usize, f64)) {
-        if self.order.is_empty() || !q.iter().all(|c| c.is_finite()) {
-            return;
-        }
         let r2 = radius * radius;
+        self.runs_near(q, radius, |points, indices| {
+            for (p, &i) in points.iter().zip(indices) {
+                let d2 = (p - q).norm_squared();
+                if d2 <= r2 {
+                    f(i as usize, d2);
+                }
+            }
+            false
+        });
+    }
+
+    /// Whether any point lies within `radius` of `q` (stops at the first found).
+    pub fn any_within(&self, q: &Point3, radius: f64) -> bool {
+        let r2 = radius * radius;
+        self.runs_near(q, radius, |points, _| {
+            points.iter().any(|p| (p - q).norm_squared() <= r2)
+        })
+    }
+
+    /// Calls `f(points, their indices)` on each run of consecutive cells that may hold
+    /// points within `radius` of `q`, until `f` returns true; returns whether it did.
+    fn runs_near(
+        &self,
+        q: &Point3,
+        radius: f64,
+        mut f: impl FnMut(&[Point3], &[u32]) -> bool,
+    ) -> bool {
+        if self.order.is_empty() || !q.iter().all(|c| c.is_finite()) {
+            return false;
+        }
         let reach = (radius / self.cell).ceil().max(1.0) as i64;
         let c = self.coords(q);
         let range = |a: usize| {
@@ -142,14 +169,12 @@ impl PointGrid {
                 let (z0, z1) = (*zs.start() as usize, *zs.end() as usize);
                 let from = self.starts[row + z0] as usize;
                 let to = self.starts[row + z1 + 1] as usize;
-                for (p, &i) in self.sorted[from..to].iter().zip(&self.order[from..to]) {
-                    let d2 = (p - q).norm_squared();
-                    if d2 <= r2 {
-                        f(i as usize, d2);
-                    }
+                if f(&self.sorted[from..to], &self.order[from..to]) {
+                    return true;
                 }
             }
         }
+        false
     }
 
     /// The nearest point within `radius` of `q` and its squared distance.
@@ -256,6 +281,11 @@ mod tests {
                         .filter(|&i| (points[i] - q).norm() <= radius)
                         .collect();
                     assert_eq!(got, want);
+                    // Away from the points too: whether any lies within the radius.
+                    let off = Point3::new(q.x + 0.07, q.y - 0.05, q.z + 0.3);
+                    let any = points.iter().any(|p| (p - off).norm() <= radius);
+                    assert_eq!(grid.any_within(q, radius), !want.is_empty());
+                    assert_eq!(grid.any_within(&off, radius), any);
                 }
             }
         }
@@ -276,6 +306,7 @@ mod tests {
     fn empty_and_non_finite_points() {
         let grid = PointGrid::new(&[], 0.1);
         assert!(grid.nearest_within(&Point3::origin(), 1.0).is_none());
+        assert!(!grid.any_within(&Point3::origin(), 1.0));
         let grid = PointGrid::new(&[Point3::new(f64::NAN, 0.0, 0.0), Point3::origin()], 0.1);
         assert_eq!(grid.nearest_within(&Point3::origin(), 1.0), Some((1, 0.0)));
     }
