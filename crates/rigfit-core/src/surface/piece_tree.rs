@@ -574,7 +574,7 @@ mod tests {
     }
 
     /// The default options with the pieces' tree's set by `set`.
-    fn with_tree(set: impl FnOnce(&mut PieceTreeOptions)) -> SurfaceOptions {
+    pub(super) fn with_tree(set: impl FnOnce(&mut PieceTreeOptions)) -> SurfaceOptions {
         let mut options = SurfaceOptions::default();
         if let Some(tree) = options.piece_tree.as_mut() {
             set(tree);

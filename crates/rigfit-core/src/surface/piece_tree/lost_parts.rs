@@ -30,8 +30,10 @@ impl PieceTree {
         let start = self.tracker.frame_start();
         let fit = self.tracker.track(points).ok();
         let radius = self.choice_sigma * self.tracker.model().height;
+        // The frame's points, found near the pieces by every fit judged.
+        let grid = PointGrid::new(points, radius);
         let mut best = match fit {
-            Some(_) => coverage(&self.tracker, points, radius),
+            Some(_) => coverage(&self.tracker, &grid, radius),
             None => f64::NEG_INFINITY,
         };
         let mut fit = fit;
@@ -39,11 +41,19 @@ impl PieceTree {
             && best < ratio * last
         {
             let own = self.tracker.options.clone();
-            let tracker = &self.tracker;
+            let (tracker, grid) = (&self.tracker, &grid);
             let tried: Vec<(Tracker, Option<FrameFit>, f64)> = OTHER_STARTS
                 .par_iter()
                 .map(|&(prediction, widen)| {
-                    refit(tracker, &start, &own, prediction, widen, points, radius)
+                    refit(
+                        tracker,
+                        &start,
+                        &own,
+                        (prediction, widen),
+                        points,
+                        grid,
+                        radius,
+                    )
                 })
                 .collect();
             // The first start's fit stands unless another covers strictly more.
@@ -62,14 +72,14 @@ impl PieceTree {
 
 /// `tracker` tracked to `points` again from `start`, continuing `prediction` of the last
 /// motion (`None`: as `own` does) with its first kernel `widen` times as wide; with its
-/// fit and coverage, and its options put back to `own`.
+/// fit and coverage of `grid` (over `points`), and its options put back to `own`.
 fn refit(
     tracker: &Tracker,
     start: &TrackerStart,
     own: &TrackOptions,
-    prediction: Option<f64>,
-    widen: f64,
+    (prediction, widen): (Option<f64>, f64),
     points: &[Point3],
+    grid: &PointGrid,
     radius: f64,
 ) -> (Tracker, Option<FrameFit>, f64) {
     let mut other = tracker.clone();
@@ -78,7 +88,7 @@ fn refit(
     other.options.max_motion = own.max_motion * widen;
     let fit = other.track(points).ok();
     let covered = match fit {
-        Some(_) => coverage(&other, points, radius),
+        Some(_) => coverage(&other, grid, radius),
         None => f64::NEG_INFINITY,
     };
     other.options = own.clone();
@@ -86,10 +96,9 @@ fn refit(
 }
 
 /// How much of the pieces lies on the data: per joint of the tree with at least
-/// [`MIN_PIECE_TEXTURE`] texture points, the share of them with a point of `points` within
+/// [`MIN_PIECE_TEXTURE`] texture points, the share of them with a point of `grid` within
 /// `radius`, averaged over those joints (a small part counts as much as a large one).
-fn coverage(tracker: &Tracker, points: &[Point3], radius: f64) -> f64 {
-    let grid = PointGrid::new(points, radius);
+fn coverage(tracker: &Tracker, grid: &PointGrid, radius: f64) -> f64 {
     let joints = tracker.model().skeleton.len();
     let (mut covered, mut all) = (vec![0usize; joints], vec![0usize; joints]);
     for (at, joint) in tracker

@@ -326,10 +326,10 @@ fn nearest(among: &[Vector3], p: &Vector3) -> (usize, f64) {
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::{arm_turned, body_and_arm};
+    use super::super::tests::{arm_turned, body_and_arm, with_tree};
     use super::*;
     use crate::surface::test_meshes::{mean_distance, scan};
-    use crate::surface::{Observations, SurfaceOptions, SurfaceTracker};
+    use crate::surface::{Observations, SurfaceTracker};
     use rand::SeedableRng;
 
     /// The arm leaves the scans at 10 degrees and swings on unseen to 100 degrees (its tip
@@ -349,10 +349,7 @@ mod tests {
             .collect();
         // The arm's mean error when it comes back.
         let back = |find_returning_parts: bool| {
-            let mut options = SurfaceOptions::default();
-            if let Some(tree) = options.piece_tree.as_mut() {
-                tree.find_returning_parts = find_returning_parts;
-            }
+            let options = with_tree(|tree| tree.find_returning_parts = find_returning_parts);
             let mut tracker = SurfaceTracker::new(&mesh, &options).expect("tracker");
             let mut rng = rand::rngs::StdRng::seed_from_u64(11);
             let mut error = 0.0;
