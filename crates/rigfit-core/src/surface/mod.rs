@@ -187,11 +187,12 @@ pub struct PieceTreeOptions {
     pub choice_sigma: f64,
     /// A piece that lost its data in the last frame is turned about its joint onto new
     /// data that no piece explains around it, when that data looks like the part coming
-    /// back into view (`piece_tree::returning`). Off by default: it finds the cheetah's
-    /// returning foot in 4 more sequences of 8 and lowers the tuning half's mean (0.88% ->
-    /// 0.84% of the diagonal at the issue's pace), but turns a rodent's returning leg and a
-    /// walker's leg onto the wrong data on the held-out half (28 sequences within the bar
-    /// against 29; BENCHMARKS.md, issue 22, session 29).
+    /// back into view (`piece_tree::returning`). On by default since session 33. At the
+    /// issue's pace it finds the cheetah's returning foot in 4 more sequences of 8 (tuning
+    /// half: mean 0.88% -> 0.84% of the diagonal, 32 -> 36 of 40 within the bar on what the
+    /// scans show). The held-out half keeps its counts, and its mean goes 0.86% -> 0.82%.
+    /// At twice that pace the held-out mean goes 2.46% -> 2.58%, from wrong turns on the
+    /// manipulator (BENCHMARKS.md, issue 22, sessions 29 and 33).
     pub find_returning_parts: bool,
     /// With one start (`second_prediction` `None`): when the tree's fit lays the pieces on
     /// less data than this share of the last frame's (the share of each piece within
@@ -219,7 +220,7 @@ impl Default for PieceTreeOptions {
             initial_sigma: 0.015,
             second_prediction: None,
             choice_sigma: 0.02,
-            find_returning_parts: false,
+            find_returning_parts: true,
             refit_below: Some(0.8),
         }
     }
