@@ -165,8 +165,10 @@ pub struct PartsScore {
 /// The four figures the bar judges, fractions of the diagonal.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct BarFigures {
+    /// Mean and 95th percentile over every vertex of every frame judged.
     pub mean: f64,
     pub p95: f64,
+    /// The worst frame's mean, and the farthest vertex in any frame.
     pub worst_frame: f64,
     pub worst_vertex: f64,
 }
@@ -234,9 +236,6 @@ pub fn track_parts(
     let mut worst_vertex_frame_errors: Vec<f64> = Vec::new();
     let (mut worst_vertex_frame, mut worst_vertex_frame_fit) = (0, Vec::new());
     for (f, (frame, truth)) in sequence.frames.iter().zip(&sequence.truth).enumerate() {
-        if std::env::var("DBG_RET").is_ok() {
-            eprintln!("DBG_RET frame {f}");
-        }
         let data = Observations::from_mesh(frame).map_err(|e| format!("frame {f}: {e}"))?;
         let t0 = Instant::now();
         let fit = tracker
