@@ -21,6 +21,24 @@ fn score(id: &str, options: &SurfaceOptions) -> PartsScore {
     track_parts(&case, options, parts.scan.hole_frames.clone()).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// Object `id`'s seed-0 sequence at the issue's pace (3 far poses), generated once, and a
+/// function tracking and scoring it with the options given.
+fn at_the_issues_pace(id: &str) -> impl Fn(&SurfaceOptions) -> PartsScore {
+    let corpus = load().unwrap_or_else(|e| panic!("{e}"));
+    let entry = corpus
+        .entry(id)
+        .unwrap_or_else(|| panic!("{id}: not in the surface corpus"));
+    let parts = PartsOptions {
+        far_poses: 3,
+        ..PartsOptions::default()
+    };
+    let case = parts_case(&corpus, entry, 0, &parts).unwrap_or_else(|e| panic!("{e}"));
+    move |options| {
+        track_parts(&case, options, parts.scan.hole_frames.clone())
+            .unwrap_or_else(|e| panic!("{e}"))
+    }
+}
+
 fn unlinked() -> SurfaceOptions {
     let mut options = SurfaceOptions::default();
     options.patches.link_parts = false;
@@ -159,19 +177,8 @@ fn the_walkers_legs_are_linked_where_their_ends_meet_not_side_by_side() {
 /// pieces hung from the nearest larger piece, which chained the arm's links out of order).
 #[test]
 fn fetchs_gripper_is_found_again_when_it_comes_back_at_the_issues_pace() {
-    let corpus = load().unwrap_or_else(|e| panic!("{e}"));
-    let entry = corpus.entry("gymr-fetch").expect("Fetch");
-    let parts = PartsOptions {
-        far_poses: 3,
-        ..PartsOptions::default()
-    };
-    let case = parts_case(&corpus, entry, 0, &parts).unwrap_or_else(|e| panic!("{e}"));
-    let score = track_parts(
-        &case,
-        &SurfaceOptions::default(),
-        parts.scan.hole_frames.clone(),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let track = at_the_issues_pace("gymr-fetch");
+    let score = track(&SurfaceOptions::default());
     let back = score.returned_worst.expect("a part was left out");
     assert!(back < 0.05, "the gripper comes back {back}");
     assert!(score.mean < 0.015, "mean {}", score.mean);
@@ -186,20 +193,13 @@ fn fetchs_gripper_is_found_again_when_it_comes_back_at_the_issues_pace() {
 /// 22, session 33).
 #[test]
 fn the_cheetahs_foot_is_found_again_when_it_comes_back_into_view() {
-    let corpus = load().unwrap_or_else(|e| panic!("{e}"));
-    let entry = corpus.entry("dmc-cheetah").expect("the cheetah");
-    let parts = PartsOptions {
-        far_poses: 3,
-        ..PartsOptions::default()
-    };
-    let case = parts_case(&corpus, entry, 0, &parts).unwrap_or_else(|e| panic!("{e}"));
+    let sequence = at_the_issues_pace("dmc-cheetah");
     let track = |find_returning_parts: bool| {
         let mut options = SurfaceOptions::default();
         if let Some(tree) = options.piece_tree.as_mut() {
             tree.find_returning_parts = find_returning_parts;
         }
-        track_parts(&case, &options, parts.scan.hole_frames.clone())
-            .unwrap_or_else(|e| panic!("{e}"))
+        sequence(&options)
     };
     let found = track(true);
     let back = found.returned_worst.expect("a part was left out");

@@ -88,17 +88,22 @@ impl PieceTree {
                 && self.piece_seen.get(joint_piece[j]) == Some(&true)
         };
         let texture_joint: Vec<usize> = self.tracker.texture_joints().collect();
-        // A lost piece large enough to look for (see the loop below).
-        let sought = |j: usize| {
-            lost(j) && {
-                let carried = texture_joint
-                    .iter()
-                    .filter(|&&tj| skeleton.is_ancestor_or_self(j, tj))
-                    .count();
-                carried as f64 >= RETURNING_PART_SHARE * texture.len() as f64
-            }
-        };
-        if !(0..skeleton.len()).any(sought) {
+        // The points a joint's piece (with what it carries) would hold were it all in view.
+        let expected =
+            |carried: usize| carried as f64 / texture.len().max(1) as f64 * points.len() as f64;
+        // The lost pieces large enough to look for, parents first.
+        let sought: Vec<usize> = (0..skeleton.len())
+            .filter(|&j| {
+                lost(j) && {
+                    let carried = texture_joint
+                        .iter()
+                        .filter(|&&tj| skeleton.is_ancestor_or_self(j, tj))
+                        .count();
+                    expected(carried) >= RETURNING_PART_SHARE * points.len() as f64
+                }
+            })
+            .collect();
+        if sought.is_empty() {
             return false;
         }
         // The points no texture point of `grid` explains.
@@ -129,11 +134,10 @@ impl PieceTree {
         }
         let world = skeleton.world_matrices(self.tracker.pose());
         let mut turns: Vec<(usize, Matrix3)> = Vec::new();
-        for j in 0..skeleton.len() {
-            if !lost(j)
-                || turns
-                    .iter()
-                    .any(|&(t, _)| skeleton.is_ancestor_or_self(t, j))
+        for &j in &sought {
+            if turns
+                .iter()
+                .any(|&(t, _)| skeleton.is_ancestor_or_self(t, j))
             {
                 continue;
             }
@@ -143,10 +147,7 @@ impl PieceTree {
                 .filter(|&(_, &tj)| skeleton.is_ancestor_or_self(j, tj))
                 .map(|(t, _)| *t)
                 .collect();
-            let expected = carried.len() as f64 / texture.len().max(1) as f64 * points.len() as f64;
-            if expected < RETURNING_PART_SHARE * points.len() as f64 {
-                continue;
-            }
+            let expected = expected(carried.len());
             let pivot = Point3::from(translation_part(&world[j]));
             let reach = 1.2
                 * carried
