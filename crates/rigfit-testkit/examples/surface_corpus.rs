@@ -24,11 +24,15 @@
 //! second prediction too and `TREE_CHOICE` the width choosing between the two; `RETURNING=0`
 //! parts coming back into view not searched for; `REFIT_BELOW=R` a frame whose pieces' coverage
 //! falls below R times the last frame's fitted again from other starts (`none`: never);
-//! `FIRST_SEED=N` starts at seed N; `VERBOSE=1` every frame's mean and worst vertex (and
-//! worst on what the scans show) and the truth's steps, `VERBOSE=2` also each piece's mean
-//! and worst in the frame with the farthest vertex the scans show, and which of the truth's
-//! pieces the worst piece lies on; `PLOT=DIR` writes DIR/surface_parts_frames.png, each object's
-//! mean per frame, `_paper` with `PAPER=1`)
+//! `FIRST_SEED=N` starts at seed N; `DRAWS=K` tracks each sequence with K draws of the
+//! pieces' tree's model points (`PieceTreeOptions::model_points_seed`, draw 0 the default,
+//! `FIRST_DRAW=D` from draw D; the seed cell then reads `seed/draw`) and prints each half's
+//! counts and mean of means per draw and their average: the draw alone moves the counts by
+//! several sequences, so a change is judged over several; `VERBOSE=1` every frame's mean
+//! and worst vertex (and worst on what the scans show) and the truth's steps, `VERBOSE=2`
+//! also each piece's mean and worst in the frame with the farthest vertex the scans show,
+//! and which of the truth's pieces the worst piece lies on; `PLOT=DIR` writes
+//! DIR/surface_parts_frames.png, each object's mean per frame, `_paper` with `PAPER=1`)
 
 #[path = "common/env_knobs.rs"]
 mod env_knobs;
@@ -36,6 +40,7 @@ mod env_knobs;
 mod plot_file;
 
 use rigfit_core::surface::SurfaceOptions;
+use rigfit_core::track::MODEL_POINTS_SEED;
 use rigfit_render::{Chart, Series, line_chart};
 use rigfit_testkit::corpus::Half;
 use rigfit_testkit::surface_corpus::{PartsOptions, load, parts_case, piece_labels, track_parts};
@@ -112,8 +117,11 @@ fn main() {
         "| object | half | seed | pieces | vertices | mean | p95 | worst frame | worst vertex | unseen part back (mean / worst) | ms/frame | bar | seen: mean / p95 / worst frame / worst vertex | bar, seen |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
-    let mut tally = std::collections::BTreeMap::<Half, (usize, usize)>::new();
-    let mut tally_seen = std::collections::BTreeMap::<Half, usize>::new();
+    let draws = env_knobs::count("DRAWS", 1).max(1) as u64;
+    let first_draw = env_knobs::count("FIRST_DRAW", 0) as u64;
+    // Per half and draw: sequences within the bar, within it on what the scans show, all
+    // sequences, and the sum of their means.
+    let mut tally = std::collections::BTreeMap::<(Half, u64), Tally>::new();
     let mut curves: Vec<Series> = Vec::new();
     for entry in &corpus.rigs {
         if chosen.as_ref().is_some_and(|c| !c.contains(&entry.id)) {
@@ -127,145 +135,153 @@ fn main() {
                     continue;
                 }
             };
-            let score = match track_parts(&case, &options, parts.scan.hole_frames.clone()) {
-                Ok(s) => s,
-                Err(e) => {
-                    println!(
-                        "| {} | {} | {seed} | failed: {e} |",
-                        entry.id,
-                        entry.half.name()
-                    );
-                    tally.entry(entry.half).or_default().1 += 1;
-                    continue;
+            for draw in first_draw..first_draw + draws {
+                let label = if draws > 1 || first_draw > 0 {
+                    format!("{seed}/{draw}")
+                } else {
+                    seed.to_string()
+                };
+                if let Some(tree) = options.piece_tree.as_mut() {
+                    tree.model_points_seed = MODEL_POINTS_SEED.wrapping_add(draw);
                 }
-            };
-            if verbose {
-                let reference = &case.sequence.reference;
-                let truth = &case.sequence.truth;
-                for f in 1..truth.len() {
-                    let steps: Vec<f64> = truth[f]
-                        .iter()
-                        .zip(&truth[f - 1])
-                        .map(|(a, b)| (a - b).norm() / case.sequence.diagonal)
-                        .collect();
-                    let mean = steps.iter().sum::<f64>() / steps.len() as f64;
-                    let max = steps.iter().copied().fold(0.0, f64::max);
-                    eprintln!(
-                        "{} seed {seed} truth step {f}: mean {:.2}% max {:.2}%",
-                        entry.id,
-                        mean * 100.0,
-                        max * 100.0
-                    );
-                }
-                for (f, (m, w)) in score.frame_means.iter().zip(&score.frame_worst).enumerate() {
-                    let v = score.frame_worst_vertex[f];
-                    eprintln!(
-                        "{} seed {seed} frame {f}: mean {:.2}% worst {:.2}% (vertex {v} at {:.3?}) seen {:.2}%",
-                        entry.id,
-                        m * 100.0,
-                        w * 100.0,
-                        reference.vertices[v].coords.as_slice(),
-                        score.frame_worst_seen[f] * 100.0
-                    );
-                }
-            }
-            if std::env::var("VERBOSE").is_ok_and(|v| v == "2") {
-                // Each piece's mean and farthest error in the frame with the farthest vertex
-                // the scans show.
-                let labels = piece_labels(&case.sequence.reference, 1e-7 * case.sequence.diagonal);
-                let mut pieces = std::collections::BTreeMap::<u32, (usize, usize, f64, f64)>::new();
-                for (v, &l) in labels.iter().enumerate() {
-                    let e = pieces.entry(l).or_insert((v, 0, 0.0, 0.0));
-                    let error = score.worst_vertex_frame_errors[v];
-                    e.1 += 1;
-                    e.2 += error;
-                    e.3 = e.3.max(error);
-                }
-                // Where the worst piece lies: each of its vertices' nearest true vertex's piece.
-                let worst_piece = labels[score
-                    .worst_vertex_frame_errors
-                    .iter()
-                    .enumerate()
-                    .fold((0, 0.0), |a, (i, &e)| if e > a.1 { (i, e) } else { a })
-                    .0];
-                let truth = &case.sequence.truth[score.worst_vertex_frame];
-                let mut lies_on = std::collections::BTreeMap::<u32, usize>::new();
-                for (v, p) in score.worst_vertex_frame_fit.iter().enumerate() {
-                    if labels[v] != worst_piece {
+                let score = match track_parts(&case, &options, parts.scan.hole_frames.clone()) {
+                    Ok(s) => s,
+                    Err(e) => {
+                        println!(
+                            "| {} | {} | {label} | failed: {e} |",
+                            entry.id,
+                            entry.half.name()
+                        );
+                        tally.entry((entry.half, draw)).or_default().total += 1;
                         continue;
                     }
-                    let nearest = truth
+                };
+                if verbose {
+                    let reference = &case.sequence.reference;
+                    let truth = &case.sequence.truth;
+                    for f in 1..truth.len() {
+                        let steps: Vec<f64> = truth[f]
+                            .iter()
+                            .zip(&truth[f - 1])
+                            .map(|(a, b)| (a - b).norm() / case.sequence.diagonal)
+                            .collect();
+                        let mean = steps.iter().sum::<f64>() / steps.len() as f64;
+                        let max = steps.iter().copied().fold(0.0, f64::max);
+                        eprintln!(
+                            "{} seed {seed} truth step {f}: mean {:.2}% max {:.2}%",
+                            entry.id,
+                            mean * 100.0,
+                            max * 100.0
+                        );
+                    }
+                    for (f, (m, w)) in score.frame_means.iter().zip(&score.frame_worst).enumerate()
+                    {
+                        let v = score.frame_worst_vertex[f];
+                        eprintln!(
+                            "{} seed {seed} frame {f}: mean {:.2}% worst {:.2}% (vertex {v} at {:.3?}) seen {:.2}%",
+                            entry.id,
+                            m * 100.0,
+                            w * 100.0,
+                            reference.vertices[v].coords.as_slice(),
+                            score.frame_worst_seen[f] * 100.0
+                        );
+                    }
+                }
+                if std::env::var("VERBOSE").is_ok_and(|v| v == "2") {
+                    // Each piece's mean and farthest error in the frame with the farthest vertex
+                    // the scans show.
+                    let labels =
+                        piece_labels(&case.sequence.reference, 1e-7 * case.sequence.diagonal);
+                    let mut pieces =
+                        std::collections::BTreeMap::<u32, (usize, usize, f64, f64)>::new();
+                    for (v, &l) in labels.iter().enumerate() {
+                        let e = pieces.entry(l).or_insert((v, 0, 0.0, 0.0));
+                        let error = score.worst_vertex_frame_errors[v];
+                        e.1 += 1;
+                        e.2 += error;
+                        e.3 = e.3.max(error);
+                    }
+                    // Where the worst piece lies: each of its vertices' nearest true vertex's piece.
+                    let worst_piece = labels[score
+                        .worst_vertex_frame_errors
                         .iter()
                         .enumerate()
-                        .map(|(u, q)| (u, (p - q).norm()))
-                        .fold((0, f64::MAX), |a, b| if b.1 < a.1 { b } else { a });
-                    *lies_on.entry(labels[nearest.0]).or_default() += 1;
-                }
-                let first_of = |l: u32| labels.iter().position(|&m| m == l).unwrap_or(0);
-                eprintln!(
-                    "{} seed {seed} frame {}: the worst piece (from vertex {}) lies on the truth's pieces {:?}",
-                    entry.id,
-                    score.worst_vertex_frame,
-                    first_of(worst_piece),
-                    lies_on
-                        .iter()
-                        .map(|(&l, &n)| (first_of(l), n))
-                        .collect::<Vec<_>>()
-                );
-                for (first, count, sum, worst) in pieces.values() {
+                        .fold((0, 0.0), |a, (i, &e)| if e > a.1 { (i, e) } else { a })
+                        .0];
+                    let truth = &case.sequence.truth[score.worst_vertex_frame];
+                    let mut lies_on = std::collections::BTreeMap::<u32, usize>::new();
+                    for (v, p) in score.worst_vertex_frame_fit.iter().enumerate() {
+                        if labels[v] != worst_piece {
+                            continue;
+                        }
+                        let nearest = truth
+                            .iter()
+                            .enumerate()
+                            .map(|(u, q)| (u, (p - q).norm()))
+                            .fold((0, f64::MAX), |a, b| if b.1 < a.1 { b } else { a });
+                        *lies_on.entry(labels[nearest.0]).or_default() += 1;
+                    }
+                    let first_of = |l: u32| labels.iter().position(|&m| m == l).unwrap_or(0);
                     eprintln!(
-                        "{} seed {seed} worst vertex's frame: piece from vertex {first} ({count} vertices): mean {:.2}% worst {:.2}%",
+                        "{} seed {seed} frame {}: the worst piece (from vertex {}) lies on the truth's pieces {:?}",
                         entry.id,
-                        sum / *count as f64 * 100.0,
-                        worst * 100.0
+                        score.worst_vertex_frame,
+                        first_of(worst_piece),
+                        lies_on
+                            .iter()
+                            .map(|(&l, &n)| (first_of(l), n))
+                            .collect::<Vec<_>>()
                     );
+                    for (first, count, sum, worst) in pieces.values() {
+                        eprintln!(
+                            "{} seed {seed} worst vertex's frame: piece from vertex {first} ({count} vertices): mean {:.2}% worst {:.2}%",
+                            entry.id,
+                            sum / *count as f64 * 100.0,
+                            worst * 100.0
+                        );
+                    }
                 }
+                curves.push(Series::new(
+                    format!("{} ({})", entry.id, entry.half.name()),
+                    score
+                        .frame_means
+                        .iter()
+                        .enumerate()
+                        .map(|(f, m)| (f as f64, m * 100.0))
+                        .collect(),
+                ));
+                let pass = score.passes();
+                let t = tally.entry((entry.half, draw)).or_default();
+                t.within += usize::from(pass);
+                t.within_seen += usize::from(score.seen.passes());
+                t.total += 1;
+                t.sum_of_means += score.mean;
+                let back = match (score.returned, score.returned_worst) {
+                    (Some(m), Some(w)) => format!("{:.2} / {:.2}", m * 100.0, w * 100.0),
+                    _ => "-".into(),
+                };
+                println!(
+                    "| {} | {} | {label} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {back} | {:.1} | {} | {:.2} / {:.2} / {:.2} / {:.2} | {} |",
+                    entry.id,
+                    entry.half.name(),
+                    case.pieces,
+                    case.sequence.reference.vertices.len(),
+                    score.mean * 100.0,
+                    score.p95 * 100.0,
+                    score.worst_frame() * 100.0,
+                    score.worst_vertex() * 100.0,
+                    score.median_seconds() * 1000.0,
+                    if pass { "yes" } else { "no" },
+                    score.seen.mean * 100.0,
+                    score.seen.p95 * 100.0,
+                    score.seen.worst_frame * 100.0,
+                    score.seen.worst_vertex * 100.0,
+                    if score.seen.passes() { "yes" } else { "no" }
+                );
             }
-            curves.push(Series::new(
-                format!("{} ({})", entry.id, entry.half.name()),
-                score
-                    .frame_means
-                    .iter()
-                    .enumerate()
-                    .map(|(f, m)| (f as f64, m * 100.0))
-                    .collect(),
-            ));
-            let pass = score.passes();
-            let t = tally.entry(entry.half).or_default();
-            t.0 += usize::from(pass);
-            t.1 += 1;
-            *tally_seen.entry(entry.half).or_default() += usize::from(score.seen.passes());
-            let back = match (score.returned, score.returned_worst) {
-                (Some(m), Some(w)) => format!("{:.2} / {:.2}", m * 100.0, w * 100.0),
-                _ => "-".into(),
-            };
-            println!(
-                "| {} | {} | {seed} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {back} | {:.1} | {} | {:.2} / {:.2} / {:.2} / {:.2} | {} |",
-                entry.id,
-                entry.half.name(),
-                case.pieces,
-                case.sequence.reference.vertices.len(),
-                score.mean * 100.0,
-                score.p95 * 100.0,
-                score.worst_frame() * 100.0,
-                score.worst_vertex() * 100.0,
-                score.median_seconds() * 1000.0,
-                if pass { "yes" } else { "no" },
-                score.seen.mean * 100.0,
-                score.seen.p95 * 100.0,
-                score.seen.worst_frame * 100.0,
-                score.seen.worst_vertex * 100.0,
-                if score.seen.passes() { "yes" } else { "no" }
-            );
         }
     }
-    for (half, (pass, total)) in tally {
-        println!(
-            "{}: {pass}/{total} within the bar ({}/{total} on what the scans show)",
-            half.name(),
-            tally_seen.get(&half).copied().unwrap_or(0)
-        );
-    }
+    print_tally(&tally);
     if let Ok(dir) = std::env::var("PLOT") {
         let paper = std::env::var("PAPER").is_ok();
         let mut chart = Chart::new(
@@ -286,5 +302,62 @@ fn main() {
         };
         std::fs::create_dir_all(&dir).expect("the plot folder");
         plot_file::write(&line_chart(&chart), std::path::Path::new(&dir), name);
+    }
+}
+
+/// One half's sequences under one draw of the tree's model points.
+#[derive(Clone, Copy, Debug, Default)]
+struct Tally {
+    within: usize,
+    within_seen: usize,
+    total: usize,
+    sum_of_means: f64,
+}
+
+/// Each half's counts within the bar (and on what the scans show) and its mean of the
+/// sequences' means: per draw, then their average when there are several.
+fn print_tally(tally: &std::collections::BTreeMap<(Half, u64), Tally>) {
+    let mut halves: Vec<Half> = tally.keys().map(|&(h, _)| h).collect();
+    halves.dedup();
+    for half in halves {
+        let draws: Vec<(u64, Tally)> = tally
+            .iter()
+            .filter(|&(&(h, _), _)| h == half)
+            .map(|(&(_, d), &t)| (d, t))
+            .collect();
+        let mean = |t: &Tally| 100.0 * t.sum_of_means / t.total.max(1) as f64;
+        if let [(_, t)] = draws[..] {
+            println!(
+                "{}: {}/{} within the bar ({}/{} on what the scans show), mean of means {:.3}%",
+                half.name(),
+                t.within,
+                t.total,
+                t.within_seen,
+                t.total,
+                mean(&t)
+            );
+            continue;
+        }
+        for (d, t) in &draws {
+            println!(
+                "{} draw {d}: {}/{} within the bar ({} on what the scans show), mean of means {:.3}%",
+                half.name(),
+                t.within,
+                t.total,
+                t.within_seen,
+                mean(t)
+            );
+        }
+        let n = draws.len() as f64;
+        let average = |f: &dyn Fn(&Tally) -> f64| draws.iter().map(|(_, t)| f(t)).sum::<f64>() / n;
+        println!(
+            "{} over {} draws: {:.1}/{} within the bar ({:.1} on what the scans show), mean of means {:.3}%",
+            half.name(),
+            draws.len(),
+            average(&|t| t.within as f64),
+            draws[0].1.total,
+            average(&|t| t.within_seen as f64),
+            average(&|t| mean(t))
+        );
     }
 }

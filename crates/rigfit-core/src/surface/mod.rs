@@ -169,6 +169,11 @@ pub struct PieceTreeOptions {
     /// 41-piece hand drew about 12 of 1,500 and was lost while in view; BENCHMARKS.md, issue
     /// 22, session 30).
     pub model_points_per_piece: usize,
+    /// The seed of the random draw of those points (by area, on the pieces' surface). The
+    /// draw alone moves the many-part corpus's count within the bar by several sequences:
+    /// a change is judged over several draws (`DRAWS` in the `surface_corpus` example;
+    /// BENCHMARKS.md, issue 22, sessions 30 and 34).
+    pub model_points_seed: u64,
     /// The articulated tracker matches one point of a frame in this many.
     pub data_stride: usize,
     /// The patches' first `sigma` (fraction of the diagonal) in a frame that starts from the
@@ -216,6 +221,7 @@ impl Default for PieceTreeOptions {
             },
             model_points: 1500,
             model_points_per_piece: 150,
+            model_points_seed: crate::track::MODEL_POINTS_SEED,
             data_stride: 4,
             initial_sigma: 0.015,
             second_prediction: None,

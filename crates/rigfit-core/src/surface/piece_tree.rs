@@ -228,7 +228,8 @@ impl PieceTree {
             .saturating_mul(pieces)
             .min(MAX_MODEL_POINTS)
             .max(options.model_points);
-        let articulated = ArticulatedModel::from_rig(&rig, model_points).ok()?;
+        let articulated =
+            ArticulatedModel::from_rig_drawn(&rig, model_points, options.model_points_seed).ok()?;
         let tracker = Tracker::new(articulated, options.track.clone()).ok()?;
         let identity = RigidMotion {
             rotation: Matrix3::identity(),
@@ -596,24 +597,40 @@ mod tests {
         options
     }
 
+    /// The articulated tracker's model points on the body and arm's tree, with the default
+    /// options changed by `set`.
+    fn body_and_arm_model_points(set: impl FnOnce(&mut PieceTreeOptions)) -> Vec<Point3> {
+        let (mesh, _) = body_and_arm();
+        let model = PatchModel::new(&mesh, &SurfaceOptions::default().patches).expect("model");
+        let mut options = PieceTreeOptions::default();
+        set(&mut options);
+        let tree = PieceTree::new(&model, &options).expect("a tree");
+        tree.tracker.texture_positions()
+    }
+
     /// The articulated tracker's model points: so many a piece, between the least the
     /// options ask for and [`MAX_MODEL_POINTS`].
     #[test]
     fn the_tree_samples_its_model_points_by_the_piece_within_bounds() {
-        let (mesh, _) = body_and_arm();
-        let model = PatchModel::new(&mesh, &SurfaceOptions::default().patches).expect("model");
         let points = |per_piece: usize| {
-            let options = PieceTreeOptions {
-                model_points_per_piece: per_piece,
-                ..PieceTreeOptions::default()
-            };
-            let tree = PieceTree::new(&model, &options).expect("a tree");
-            tree.tracker.texture_positions().len()
+            body_and_arm_model_points(|o| o.model_points_per_piece = per_piece).len()
         };
         // Two pieces: the least (1,500), a share of each piece, the most.
         assert_eq!(points(150), 1500);
         assert_eq!(points(1000), 2000);
         assert_eq!(points(10_000), MAX_MODEL_POINTS);
+    }
+
+    /// The model points are drawn from their seed: the same seed, the same points; another
+    /// seed, as many points elsewhere.
+    #[test]
+    fn the_tree_draws_its_model_points_from_their_seed() {
+        let points = |seed: u64| body_and_arm_model_points(|o| o.model_points_seed = seed);
+        let default = PieceTreeOptions::default().model_points_seed;
+        let (first, again, other) = (points(default), points(default), points(default + 1));
+        assert_eq!(first, again);
+        assert_eq!(first.len(), other.len());
+        assert_ne!(first, other);
     }
 
     /// The arm swings up to 85 degrees and back, up to 30 degrees between scans (its tip

@@ -31,7 +31,7 @@ use texture::TexturePoint;
 
 pub use initialise::{Initialisation, InitialiseOptions, Tried, initialise, initialise_with};
 pub use limb_swings::LimbSwingOptions;
-pub use model::{bind_pose, texture_count};
+pub use model::{MODEL_POINTS_SEED, bind_pose, texture_count};
 pub use options::{TextureSource, TrackOptions};
 pub use take::{FrameStart, StartMode, Take, TakeFrame, TakeOptions};
 pub(crate) use tracker::TrackerStart;

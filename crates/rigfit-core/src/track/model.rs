@@ -13,6 +13,9 @@ use crate::math::{Point3, Vector3};
 use crate::rig::{Rig, z_is_up};
 use crate::skeleton::Pose;
 
+/// The seed of [`ArticulatedModel::from_rig`]'s random draw of texture points.
+pub const MODEL_POINTS_SEED: u64 = 0x7ac4;
+
 impl ArticulatedModel {
     /// The model's up axis: y, or z when its surface is much deeper in z than tall in y (as
     /// `Rig::height` decides). The first-frame search turns the body about it.
@@ -29,12 +32,17 @@ impl ArticulatedModel {
     /// bone lengths and sampled on their fused surface. `samples == 0` picks the count from
     /// the surface's area (see [`texture_count`]).
     pub fn from_rig(rig: &Rig, samples: usize) -> Result<Self, TrackError> {
+        Self::from_rig_drawn(rig, samples, MODEL_POINTS_SEED)
+    }
+
+    /// [`ArticulatedModel::from_rig`] with the texture points drawn from `seed`.
+    pub fn from_rig_drawn(rig: &Rig, samples: usize, seed: u64) -> Result<Self, TrackError> {
         let height = rig.height().max(1e-9);
         let has_mesh = rig
             .meshes
             .iter()
             .any(|m| !m.positions.is_empty() && !m.triangles.is_empty());
-        let mut rng = rand::rngs::StdRng::seed_from_u64(0x7ac4);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
         // A skinned character is modelled in its bind pose (limbs apart, as it was
         // modelled); a bare skeleton in its stored pose.
         let built = if has_mesh {
