@@ -159,7 +159,8 @@ fn main() {
                 if verbose {
                     let reference = &case.sequence.reference;
                     let truth = &case.sequence.truth;
-                    for f in 1..truth.len() {
+                    // The truth's steps, once a sequence (every draw tracks the same one).
+                    for f in (1..truth.len()).filter(|_| draw == first_draw) {
                         let steps: Vec<f64> = truth[f]
                             .iter()
                             .zip(&truth[f - 1])
@@ -178,7 +179,7 @@ fn main() {
                     {
                         let v = score.frame_worst_vertex[f];
                         eprintln!(
-                            "{} seed {seed} frame {f}: mean {:.2}% worst {:.2}% (vertex {v} at {:.3?}) seen {:.2}%",
+                            "{} seed {label} frame {f}: mean {:.2}% worst {:.2}% (vertex {v} at {:.3?}) seen {:.2}%",
                             entry.id,
                             m * 100.0,
                             w * 100.0,
@@ -223,7 +224,7 @@ fn main() {
                     }
                     let first_of = |l: u32| labels.iter().position(|&m| m == l).unwrap_or(0);
                     eprintln!(
-                        "{} seed {seed} frame {}: the worst piece (from vertex {}) lies on the truth's pieces {:?}",
+                        "{} seed {label} frame {}: the worst piece (from vertex {}) lies on the truth's pieces {:?}",
                         entry.id,
                         score.worst_vertex_frame,
                         first_of(worst_piece),
@@ -234,7 +235,7 @@ fn main() {
                     );
                     for (first, count, sum, worst) in pieces.values() {
                         eprintln!(
-                            "{} seed {seed} worst vertex's frame: piece from vertex {first} ({count} vertices): mean {:.2}% worst {:.2}%",
+                            "{} seed {label} worst vertex's frame: piece from vertex {first} ({count} vertices): mean {:.2}% worst {:.2}%",
                             entry.id,
                             sum / *count as f64 * 100.0,
                             worst * 100.0
