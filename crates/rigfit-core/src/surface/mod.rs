@@ -216,10 +216,7 @@ impl Default for PieceTreeOptions {
         Self {
             track: crate::track::TrackOptions {
                 anneal_steps: 6,
-                // 5 against 3, over three draws of the model points at the issue's pace:
-                // tune 28.7 -> 30.0 of 40 within the bar, held-out 31.0 -> 33.0 of 48, both
-                // means lower (BENCHMARKS.md, issue 22, session 34).
-                final_em_iterations: 5,
+                final_em_iterations: 3,
                 ..Default::default()
             },
             model_points: 1500,
