@@ -43,7 +43,9 @@ use rigfit_core::surface::SurfaceOptions;
 use rigfit_core::track::MODEL_POINTS_SEED;
 use rigfit_render::{Chart, Series, line_chart};
 use rigfit_testkit::corpus::Half;
-use rigfit_testkit::surface_corpus::{PartsOptions, load, parts_case, piece_labels, track_parts};
+use rigfit_testkit::surface_corpus::{
+    PartsCase, PartsOptions, PartsScore, load, parts_case, piece_labels, track_parts,
+};
 
 fn main() {
     let corpus = match load() {
@@ -135,6 +137,13 @@ fn main() {
                     continue;
                 }
             };
+            if verbose {
+                print_truth_steps(&entry.id, seed, &case);
+            }
+            // The pieces of the reference, for `VERBOSE=2` (the same for every draw).
+            let labels = std::env::var("VERBOSE")
+                .is_ok_and(|v| v == "2")
+                .then(|| piece_labels(&case.sequence.reference, 1e-7 * case.sequence.diagonal));
             for draw in first_draw..first_draw + draws {
                 let label = if draws > 1 || first_draw > 0 {
                     format!("{seed}/{draw}")
@@ -158,23 +167,6 @@ fn main() {
                 };
                 if verbose {
                     let reference = &case.sequence.reference;
-                    let truth = &case.sequence.truth;
-                    // The truth's steps, once a sequence (every draw tracks the same one).
-                    for f in (1..truth.len()).filter(|_| draw == first_draw) {
-                        let steps: Vec<f64> = truth[f]
-                            .iter()
-                            .zip(&truth[f - 1])
-                            .map(|(a, b)| (a - b).norm() / case.sequence.diagonal)
-                            .collect();
-                        let mean = steps.iter().sum::<f64>() / steps.len() as f64;
-                        let max = steps.iter().copied().fold(0.0, f64::max);
-                        eprintln!(
-                            "{} seed {seed} truth step {f}: mean {:.2}% max {:.2}%",
-                            entry.id,
-                            mean * 100.0,
-                            max * 100.0
-                        );
-                    }
                     for (f, (m, w)) in score.frame_means.iter().zip(&score.frame_worst).enumerate()
                     {
                         let v = score.frame_worst_vertex[f];
@@ -188,59 +180,8 @@ fn main() {
                         );
                     }
                 }
-                if std::env::var("VERBOSE").is_ok_and(|v| v == "2") {
-                    // Each piece's mean and farthest error in the frame with the farthest vertex
-                    // the scans show.
-                    let labels =
-                        piece_labels(&case.sequence.reference, 1e-7 * case.sequence.diagonal);
-                    let mut pieces =
-                        std::collections::BTreeMap::<u32, (usize, usize, f64, f64)>::new();
-                    for (v, &l) in labels.iter().enumerate() {
-                        let e = pieces.entry(l).or_insert((v, 0, 0.0, 0.0));
-                        let error = score.worst_vertex_frame_errors[v];
-                        e.1 += 1;
-                        e.2 += error;
-                        e.3 = e.3.max(error);
-                    }
-                    // Where the worst piece lies: each of its vertices' nearest true vertex's piece.
-                    let worst_piece = labels[score
-                        .worst_vertex_frame_errors
-                        .iter()
-                        .enumerate()
-                        .fold((0, 0.0), |a, (i, &e)| if e > a.1 { (i, e) } else { a })
-                        .0];
-                    let truth = &case.sequence.truth[score.worst_vertex_frame];
-                    let mut lies_on = std::collections::BTreeMap::<u32, usize>::new();
-                    for (v, p) in score.worst_vertex_frame_fit.iter().enumerate() {
-                        if labels[v] != worst_piece {
-                            continue;
-                        }
-                        let nearest = truth
-                            .iter()
-                            .enumerate()
-                            .map(|(u, q)| (u, (p - q).norm()))
-                            .fold((0, f64::MAX), |a, b| if b.1 < a.1 { b } else { a });
-                        *lies_on.entry(labels[nearest.0]).or_default() += 1;
-                    }
-                    let first_of = |l: u32| labels.iter().position(|&m| m == l).unwrap_or(0);
-                    eprintln!(
-                        "{} seed {label} frame {}: the worst piece (from vertex {}) lies on the truth's pieces {:?}",
-                        entry.id,
-                        score.worst_vertex_frame,
-                        first_of(worst_piece),
-                        lies_on
-                            .iter()
-                            .map(|(&l, &n)| (first_of(l), n))
-                            .collect::<Vec<_>>()
-                    );
-                    for (first, count, sum, worst) in pieces.values() {
-                        eprintln!(
-                            "{} seed {label} worst vertex's frame: piece from vertex {first} ({count} vertices): mean {:.2}% worst {:.2}%",
-                            entry.id,
-                            sum / *count as f64 * 100.0,
-                            worst * 100.0
-                        );
-                    }
+                if let Some(labels) = &labels {
+                    print_worst_piece(&entry.id, &label, &case, &score, labels);
                 }
                 curves.push(Series::new(
                     format!("{} ({})", entry.id, entry.half.name()),
@@ -359,6 +300,76 @@ fn print_tally(tally: &std::collections::BTreeMap<(Half, u64), Tally>) {
             draws[0].1.total,
             average(&|t| t.within_seen as f64),
             average(&|t| mean(t))
+        );
+    }
+}
+
+/// The truth's steps between frames of `case`: each frame's mean and largest vertex step,
+/// fractions of the diagonal.
+fn print_truth_steps(id: &str, seed: u64, case: &PartsCase) {
+    let truth = &case.sequence.truth;
+    for f in 1..truth.len() {
+        let steps: Vec<f64> = truth[f]
+            .iter()
+            .zip(&truth[f - 1])
+            .map(|(a, b)| (a - b).norm() / case.sequence.diagonal)
+            .collect();
+        let mean = steps.iter().sum::<f64>() / steps.len() as f64;
+        let max = steps.iter().copied().fold(0.0, f64::max);
+        eprintln!(
+            "{id} seed {seed} truth step {f}: mean {:.2}% max {:.2}%",
+            mean * 100.0,
+            max * 100.0
+        );
+    }
+}
+
+/// Each piece's (`labels`) mean and farthest error in the frame with the farthest vertex the
+/// scans show, and which of the truth's pieces the worst piece lies on.
+fn print_worst_piece(id: &str, label: &str, case: &PartsCase, score: &PartsScore, labels: &[u32]) {
+    let mut pieces = std::collections::BTreeMap::<u32, (usize, usize, f64, f64)>::new();
+    for (v, &l) in labels.iter().enumerate() {
+        let e = pieces.entry(l).or_insert((v, 0, 0.0, 0.0));
+        let error = score.worst_vertex_frame_errors[v];
+        e.1 += 1;
+        e.2 += error;
+        e.3 = e.3.max(error);
+    }
+    // Where the worst piece lies: each of its vertices' nearest true vertex's piece.
+    let worst_piece = labels[score
+        .worst_vertex_frame_errors
+        .iter()
+        .enumerate()
+        .fold((0, 0.0), |a, (i, &e)| if e > a.1 { (i, e) } else { a })
+        .0];
+    let truth = &case.sequence.truth[score.worst_vertex_frame];
+    let mut lies_on = std::collections::BTreeMap::<u32, usize>::new();
+    for (v, p) in score.worst_vertex_frame_fit.iter().enumerate() {
+        if labels[v] != worst_piece {
+            continue;
+        }
+        let nearest = truth
+            .iter()
+            .enumerate()
+            .map(|(u, q)| (u, (p - q).norm()))
+            .fold((0, f64::MAX), |a, b| if b.1 < a.1 { b } else { a });
+        *lies_on.entry(labels[nearest.0]).or_default() += 1;
+    }
+    let first_of = |l: u32| labels.iter().position(|&m| m == l).unwrap_or(0);
+    eprintln!(
+        "{id} seed {label} frame {}: the worst piece (from vertex {}) lies on the truth's pieces {:?}",
+        score.worst_vertex_frame,
+        first_of(worst_piece),
+        lies_on
+            .iter()
+            .map(|(&l, &n)| (first_of(l), n))
+            .collect::<Vec<_>>()
+    );
+    for (first, count, sum, worst) in pieces.values() {
+        eprintln!(
+            "{id} seed {label} worst vertex's frame: piece from vertex {first} ({count} vertices): mean {:.2}% worst {:.2}%",
+            sum / *count as f64 * 100.0,
+            worst * 100.0
         );
     }
 }
