@@ -230,6 +230,12 @@ impl PieceTree {
 /// Turns tried: the piece's centroid turned toward the data's, then twisted about that
 /// direction in this many even steps.
 const TWISTS: usize = 8;
+/// Turns whose shares covered (summed) are within this of the best's fit as well as it,
+/// and the smallest of them is taken: the cheetah's foot, a capsule, lay as well on its
+/// returning data turned 1.4 and 2.7 radians (0.84 + 0.66 and 0.81 + 0.69 of each side),
+/// and the larger put it 4% of the diagonal off (tuning half; BENCHMARKS.md, issue 22,
+/// session 35).
+const TURN_TIE: f64 = 0.05;
 /// Closest-point iterations refining each turn.
 const REFINE_STEPS: usize = 10;
 /// The search matches at most this many points of either side (evenly strided).
@@ -250,13 +256,18 @@ impl TurnFit {
     fn covered(&self) -> f64 {
         self.data_covered + self.model_covered
     }
+
+    /// The turn's angle (radians).
+    fn angle(&self) -> f64 {
+        crate::math::rotation_quat(&self.turn).angle()
+    }
 }
 
 /// The best turn of `model` (points on a piece and on what it carries) about `pivot` onto
 /// `data`: turns from the centroids' directions and their twists, each refined by closest
 /// points both ways with a rotation about the pivot (Kabsch without the translation, pairs
-/// weighted by a Cauchy kernel of width `fine`), the one with the largest shares of each
-/// side within `near` of the other kept.
+/// weighted by a Cauchy kernel of width `fine`); of those whose shares of each side within
+/// `near` of the other (summed) are within [`TURN_TIE`] of the largest, the smallest turn.
 pub(super) fn best_turn(
     model: &[Point3],
     data: &[Point3],
@@ -269,9 +280,9 @@ pub(super) fn best_turn(
         p.iter().step_by(stride).copied().collect()
     };
     let (model, data) = (&strided(model)[..], &strided(data)[..]);
-    let mut best = coverage(model, data, pivot, &Matrix3::identity(), near);
+    let unturned = coverage(model, data, pivot, &Matrix3::identity(), near);
     if model.is_empty() || data.is_empty() {
-        return best;
+        return unturned;
     }
     let from = centroid(model) - pivot;
     let to = centroid(data) - pivot;
@@ -282,16 +293,27 @@ pub(super) fn best_turn(
         Rotation3::from_axis_angle(&Unit::new_unchecked(across), std::f64::consts::PI)
     });
     let axis = Unit::try_new(to, 1e-12).unwrap_or(Vector3::z_axis());
+    let mut fits = vec![unturned];
     for k in 0..TWISTS {
         let angle = std::f64::consts::TAU * k as f64 / TWISTS as f64;
         let twist = Rotation3::from_axis_angle(&axis, angle);
         let turn = refine(model, data, pivot, (twist * toward).into_inner(), fine);
         let fit = coverage(model, data, pivot, &turn, near);
-        if fit.covered() > best.covered() {
-            best = fit;
-        }
+        fits.push(fit);
     }
-    best
+    least_of_the_best(fits).unwrap_or(unturned)
+}
+
+/// Of the turns that fit within [`TURN_TIE`] of the best, the smallest: a part nearly
+/// symmetric about its length lies as well on its data twisted any way about it.
+fn least_of_the_best(fits: Vec<TurnFit>) -> Option<TurnFit> {
+    let most = fits
+        .iter()
+        .map(TurnFit::covered)
+        .fold(f64::NEG_INFINITY, f64::max);
+    fits.into_iter()
+        .filter(|fit| fit.covered() >= most - TURN_TIE)
+        .min_by(|a, b| a.angle().total_cmp(&b.angle()))
 }
 
 /// Closest points both ways, each pair weighted down with its distance (a Cauchy weight of
@@ -451,5 +473,52 @@ mod tests {
         );
         let off = crate::math::rotation_quat(&(best.turn * truth.transpose())).angle();
         assert!(off < 0.05, "{off} radians off");
+    }
+
+    /// A round rod from the pivot along x, turned a quarter turn about z: twisted any way
+    /// about its length it lies as well on its data, and the smallest turn is kept (the
+    /// quarter turn itself, not a turn about another axis up to half a turn).
+    #[test]
+    fn a_round_rod_is_turned_the_least_way_onto_its_data() {
+        let pivot = Point3::new(0.1, 0.2, -0.3);
+        let mut model = Vec::new();
+        for i in 0..40 {
+            for k in 0..12 {
+                let a = std::f64::consts::TAU * k as f64 / 12.0;
+                let x = 0.02 + 0.5 * i as f64 / 39.0;
+                model.push(pivot + Vector3::new(x, 0.04 * a.cos(), 0.04 * a.sin()));
+            }
+        }
+        let truth = Rotation3::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2);
+        let data: Vec<Point3> = model.iter().map(|m| pivot + truth * (m - pivot)).collect();
+        let best = best_turn(&model, &data, &pivot, 0.02, 0.02);
+        assert!(
+            best.data_covered > 0.95 && best.model_covered > 0.95,
+            "{best:?}"
+        );
+        let angle = best.angle();
+        assert!(
+            (angle - std::f64::consts::FRAC_PI_2).abs() < 0.1,
+            "turned {angle} radians"
+        );
+    }
+
+    /// Of turns that fit about as well as the best, the smallest is taken; a turn that
+    /// fits clearly worse is not, however small.
+    #[test]
+    fn the_least_turn_of_those_fitting_about_as_well_as_the_best_is_taken() {
+        let fit = |angle: f64, data_covered: f64, model_covered: f64| TurnFit {
+            turn: Rotation3::from_axis_angle(&Vector3::z_axis(), angle).into_inner(),
+            data_covered,
+            model_covered,
+        };
+        let fits = vec![
+            fit(0.3, 0.6, 0.5),
+            fit(2.7, 0.81, 0.69),
+            fit(1.4, 0.84, 0.64),
+            fit(2.0, 0.8, 0.6),
+        ];
+        let taken = least_of_the_best(fits).expect("a turn");
+        assert!((taken.angle() - 1.4).abs() < 1e-9, "{taken:?}");
     }
 }
