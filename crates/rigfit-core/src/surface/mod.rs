@@ -177,7 +177,7 @@ pub struct PieceTreeOptions {
     /// The articulated tracker matches one point of a frame in this many. 5 since session
     /// 35 (4 before), with the tracker's fit ending in 5 EM iterations at its narrowest
     /// kernel (3 before): over three draws of the model points at the issue's pace, tune
-    /// 28.7 -> 29.3 of 40 within the bar (mean of means 0.850% -> 0.825%), held-out 31.0 ->
+    /// 28.7 -> 29.3 of 40 within the bar (mean of means 0.851% -> 0.825%), held-out 31.0 ->
     /// 33.7 of 48 (0.873% -> 0.833%), at about 7% more time on the bench's Adroit frame
     /// (the 5 iterations on one point in four: tune 30.0 of 40, 0.830%, at about 12% more;
     /// BENCHMARKS.md, issue 22, session 35).

@@ -230,8 +230,8 @@ impl PieceTree {
 /// Turns tried: the piece's centroid turned toward the data's, then twisted about that
 /// direction in this many even steps.
 const TWISTS: usize = 8;
-/// Turns whose shares covered (summed) are within this of the best's fit as well as it,
-/// and the smallest of them is taken: the cheetah's foot, a capsule, lay as well on its
+/// A turn whose shares covered (summed) come within this of the best turn's fits as well,
+/// and the smallest of those is taken: the cheetah's foot, a capsule, lay as well on its
 /// returning data turned 1.4 and 2.7 radians (0.84 + 0.66 and 0.81 + 0.69 of each side),
 /// and the larger put it 4% of the diagonal off (tuning half; BENCHMARKS.md, issue 22,
 /// session 35).
