@@ -8,7 +8,7 @@
 //! `dp/d delta_k = A_j.linear * (e_k x A_j^-1 (p))`.
 
 use crate::math::{
-    Matrix3, Matrix4, Point3, Quat, Vector3, exp_rotation, linear_part, translation_part,
+    Matrix3, Matrix4, Point3, Quat, Vector3, exp_rotation, linear_part, skew, translation_part,
 };
 use crate::skeleton::{JointDof, Pose, Skeleton};
 
@@ -255,6 +255,45 @@ impl ForwardKinematics {
                     for k in 0..3 {
                         column(o + k, pl.column(k).into_owned());
                         column(o + 3 + k, a * Vector3::ith(k, 1.0).cross(&q));
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl ForwardKinematics {
+    /// [`Self::point_jacobian`]'s columns as affine functions of the point: calls
+    /// `column(parameter_index, dp/dparameter at p, its derivative with respect to p)`. A
+    /// rotation's column `A_j (e x A_j^-1 (p - o_j))` has the derivative `A_j [e]x A_j^-1`;
+    /// a free joint's translation column is constant. A sum over many points of their
+    /// columns against other vectors then follows from the points' moments about `p`.
+    pub fn point_jacobian_affine(
+        &self,
+        layout: &DofLayout,
+        joint: usize,
+        p: &Point3,
+        mut column: impl FnMut(usize, Vector3, Matrix3),
+    ) {
+        let mut cur = Some(joint);
+        while let Some(j) = cur {
+            cur = self.parent[j];
+            let Some(o) = layout.offset(j) else { continue };
+            let a = &self.frame_linear[j];
+            let a_inv = &self.frame_linear_inv[j];
+            let q = a_inv * (p.coords - self.origin[j]);
+            let mut rotation = |index: usize, axis: Vector3| {
+                column(index, a * axis.cross(&q), a * skew(&axis) * a_inv)
+            };
+            match layout.dof(j) {
+                JointDof::Fixed => {}
+                JointDof::Hinge { axis } => rotation(o, axis.normalize()),
+                JointDof::Ball => (0..3).for_each(|k| rotation(o + k, Vector3::ith(k, 1.0))),
+                JointDof::Free => {
+                    (0..3).for_each(|k| rotation(o + 3 + k, Vector3::ith(k, 1.0)));
+                    let pl = &self.parent_linear[j];
+                    for k in 0..3 {
+                        column(o + k, pl.column(k).into_owned(), Matrix3::zeros());
                     }
                 }
             }

@@ -33,7 +33,8 @@ pub use linear_algebra::{
     SolveError, SparseCholesky,
 };
 pub use skeleton::{
-    ArticulatedNormalEquations, SkeletonNormalEquations, SubtreeMoments, TreeNormalEquations,
+    ArticulatedNormalEquations, ChainCrossMoments, SkeletonNormalEquations, SubtreeMoments,
+    TreeNormalEquations,
 };
 pub use spatial::{NearTree, NearestFew, PointGrid, PointTree, morton_order, voxel_subsample};
 

@@ -4,7 +4,7 @@
 
 use super::Tracker;
 use super::texture::TexturePoint;
-use crate::engine::{NormalSink, SkeletonNormalEquations, SubtreeMoments};
+use crate::engine::{ChainCrossMoments, NormalSink, SkeletonNormalEquations, SubtreeMoments};
 use crate::joint_model::{Ties, limit_residuals, translation_limit_residuals};
 use crate::kinematics::{DofLayout, ForwardKinematics};
 use crate::math::{Point3, Vector3};
@@ -114,22 +114,21 @@ impl Tracker {
                         ne.add_point_columns(&r, pull.weight, &cols);
                     }
                     // The split points' lower columns: their own block, their share of
-                    // `J^T r`, and their products with the upper chain's columns.
+                    // `J^T r`, and their products with the upper chain's columns (summed
+                    // by their moments).
+                    let mut cross = ChainCrossMoments::new(layout.len());
                     for (w, r, upper, x, range) in split {
                         let low = &lower[range];
-                        if low.is_empty() {
-                            continue;
-                        }
-                        cols.clear();
-                        fk.point_jacobian(layout, upper, &x, |i, v| cols.push((i, v * inv_h)));
                         for (a, &(ca, va)) in low.iter().enumerate() {
                             let wa = va * w;
                             ne.add_jtr(ca, wa.dot(&r));
-                            for &(cb, vb) in low[a..].iter().chain(&cols) {
+                            for &(cb, vb) in &low[a..] {
                                 ne.add_jtj(ca, cb, wa.dot(&vb));
                             }
+                            cross.add(fk, ca, upper, &x, &wa);
                         }
                     }
+                    cross.assemble(fk, layout, inv_h, ne);
                     // The ties: each tied joint at its place in the other's frame.
                     ties.each(layout, fk, inv_h, &mut cols, |r, w, c| {
                         ne.add_point_columns(r, w, c)
