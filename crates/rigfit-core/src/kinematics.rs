@@ -260,9 +260,7 @@ impl ForwardKinematics {
             }
         }
     }
-}
 
-impl ForwardKinematics {
     /// [`Self::point_jacobian`]'s columns as affine functions of the point: calls
     /// `column(parameter_index, dp/dparameter at p, its derivative with respect to p)`. A
     /// rotation's column `A_j (e x A_j^-1 (p - o_j))` has the derivative `A_j [e]x A_j^-1`;

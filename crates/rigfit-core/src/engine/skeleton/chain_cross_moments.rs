@@ -76,9 +76,9 @@ impl ChainCrossMoments {
     }
 
     /// Adds to `sink` each lower column's products with its upper chain's columns (scaled
-    /// by `scale`), summed over the points: at the upper joint's origin `o`, with `v(o)`
-    /// and `L` a column's value and derivative, `sum w_c . v(x) = sum_w_c . v(o) + <L,
-    /// sum w_c d^T>`.
+    /// by `scale`), summed over the points: with `v(o)` and `L` a column's value at the
+    /// upper joint's origin `o` and its derivative, `sum w_c . v(x) = (sum w_c) . v(o) +
+    /// <L, sum w_c d^T>`.
     pub fn assemble(
         &self,
         fk: &ForwardKinematics,
