@@ -200,22 +200,22 @@ fn fetchs_gripper_is_found_again_when_it_comes_back_at_the_issues_pace() {
 /// (BENCHMARKS.md, issue 22, sessions 33-35).
 #[test]
 fn the_cheetahs_foot_is_found_again_when_it_comes_back_into_view() {
-    let looking = |find_returning_parts: bool| {
+    let options_looking = |find_returning_parts: bool| {
         let mut options = SurfaceOptions::default();
         if let Some(tree) = options.piece_tree.as_mut() {
             tree.find_returning_parts = find_returning_parts;
         }
         options
     };
-    let (looking, not_looking) = (looking(true), looking(false));
+    let (looking, not_looking) = (options_looking(true), options_looking(false));
+    let found = |score: PartsScore| {
+        let back = score.returned_worst.expect("a part was left out");
+        back < 0.05 && score.seen.passes()
+    };
     let (mut with, mut without) = (Vec::new(), Vec::new());
     for seed in 0..8 {
         // Each seed's sequence, generated once, tracked with the search and without.
         let track = at_the_issues_pace_from_seed("dmc-cheetah", seed);
-        let found = |score: PartsScore| {
-            let back = score.returned_worst.expect("a part was left out");
-            back < 0.05 && score.seen.passes()
-        };
         if found(track(&looking)) {
             with.push(seed);
         }
