@@ -20,7 +20,9 @@
 //! `TREE_PRIOR`, `TREE_PREDICTION`, `TREE_MOTION` its model points (at least, and a piece),
 //! data stride, annealing steps, iterations at the floor, the patches' first kernel after
 //! it, the weight of its prior toward each frame's start, the share of the last motion it
-//! continues and its first kernel, `TREE_SECOND=1.0` the tree tracked from a
+//! continues and its first kernel, `TREE_NOISE`, `TREE_TANGENTIAL`, `TREE_BENDING` its
+//! narrowest kernel, the share of each pull along the surface and the skin's bending
+//! exponent, `TREE_SECOND=1.0` the tree tracked from a
 //! second prediction too and `TREE_CHOICE` the width choosing between the two; `RETURNING=0`
 //! parts coming back into view not searched for; `REFIT_BELOW=R` a frame whose pieces' coverage
 //! falls below R times the last frame's fitted again from other starts (`none`: never);
@@ -93,6 +95,9 @@ fn main() {
         env_knobs::set("TREE_PRIOR", &mut tree.track.prior_weight);
         env_knobs::set("TREE_PREDICTION", &mut tree.track.prediction);
         env_knobs::set("TREE_MOTION", &mut tree.track.max_motion);
+        env_knobs::set("TREE_NOISE", &mut tree.track.noise);
+        env_knobs::set("TREE_TANGENTIAL", &mut tree.track.tangential);
+        env_knobs::set("TREE_BENDING", &mut tree.track.bending_exponent);
         if let Ok(v) = std::env::var("RETURNING") {
             tree.find_returning_parts = v != "0";
         }
