@@ -214,12 +214,13 @@ pub fn worst_table(cases: &[&Outcome]) -> String {
             Some(failure) => format!("solve failed: {failure}"),
             None => {
                 format!(
-                    "mean {}%  max {}% at {}  undrawn motion {}%  misfit {}% (truth {}%){}",
+                    "mean {}%  max {}% at {}  undrawn motion {}%  misfit {}% (its own chains {}%, truth {}%){}",
                     percent(o.mean_error),
                     percent(o.max_error),
                     o.worst_joint,
                     percent(o.undrawn_motion),
                     percent(o.misfit),
+                    percent(o.own_misfit),
                     percent(o.truth_misfit),
                     if o.ambiguous() { "  ambiguous" } else { "" },
                 ) + if o.twinned {

@@ -123,6 +123,9 @@ pub struct Outcome {
     /// found another pose the strokes draw as well (a mirror image turned around).
     pub misfit: f64,
     pub truth_misfit: f64,
+    /// How far the result's own chains (those it matched the strokes to) are from the
+    /// strokes ([`own_chains_misfit`]).
+    pub own_misfit: f64,
     /// Whether the answer expected is a twin of the truth under one of the rig's
     /// symmetries ([`crate::scenario::expected_labelling`]).
     pub twinned: bool,
@@ -145,12 +148,13 @@ impl Outcome {
         (self.mean_error / SUCCESS_MEAN_ERROR).max(self.max_error / SUCCESS_MAX_ERROR)
     }
 
-    /// A failure whose result fits the strokes as well as the truth does: the strokes do
-    /// not tell the two poses apart.
+    /// A failure whose result fits the strokes as well as the truth does, with the drawn
+    /// chains or with the chains it matched them to: the strokes do not tell the two poses
+    /// apart.
     pub fn ambiguous(&self) -> bool {
         self.failure.is_none()
             && !self.success()
-            && self.misfit <= self.truth_misfit + AMBIGUITY_TOLERANCE
+            && self.misfit.min(self.own_misfit) <= self.truth_misfit + AMBIGUITY_TOLERANCE
     }
 }
 
@@ -163,16 +167,73 @@ fn within_bounds(mean: f64, max: f64) -> bool {
 /// How far a pose's drawn chains are from the strokes drawn on them, in heights: the mean
 /// distance of the drawn strokes' points from the nearest bone of a drawn chain, plus the
 /// mean distance of the drawn joints from the nearest drawn stroke point. Labels play no
-/// part: a pose whose limbs trade places scores as the true one does.
+/// part within the drawn chains: a pose whose drawn limbs trade places scores as the true
+/// one does.
 pub fn stroke_misfit(
     skeleton: &rigfit_core::Skeleton,
     pose: &rigfit_core::Pose,
     case: &rigfit_core::pose::sketch::Case,
     height: f64,
 ) -> f64 {
+    chains_misfit(
+        skeleton,
+        pose,
+        case,
+        &case.stroke_chains,
+        &case.drawn_joints,
+        height,
+    )
+}
+
+/// [`stroke_misfit`] with the chains a solver matched the strokes to (`stroke_bones`, as
+/// `PoseResult` gives them: each stroke's bones named by the joints that turn them) in
+/// place of the drawn ones: how well the answer's own limbs explain the drawn strokes. A
+/// run of strokes moved one finger along a row into the finger left undrawn, or a limb's
+/// stroke given to the dropped limb, is judged by the limbs that took them. Each chain's
+/// last bone ends at its joint's only child (left out when the joint has several).
+pub fn own_chains_misfit(
+    skeleton: &rigfit_core::Skeleton,
+    pose: &rigfit_core::Pose,
+    case: &rigfit_core::pose::sketch::Case,
+    stroke_bones: &[Vec<usize>],
+    height: f64,
+) -> f64 {
+    let chains: Vec<Vec<usize>> = stroke_bones
+        .iter()
+        .map(|bones| {
+            let mut chain = bones.clone();
+            // In the order along the stroke: root first or tip first.
+            let tip_first = chain.len() >= 2 && skeleton.joint(chain[0]).parent == Some(chain[1]);
+            if tip_first {
+                chain.reverse();
+            }
+            if let Some(&last) = chain.last()
+                && let [only] = skeleton.children(last)[..]
+            {
+                chain.push(only);
+            }
+            chain
+        })
+        .collect();
+    let mut joints: Vec<usize> = chains.iter().flatten().copied().collect();
+    joints.sort_unstable();
+    joints.dedup();
+    chains_misfit(skeleton, pose, case, &chains, &joints, height)
+}
+
+/// The misfit of [`stroke_misfit`] between the points of the strokes the case draws on a
+/// chain (strays left out) and the bones of `chains` (one joint path per stroke, or empty)
+/// and `joints`.
+fn chains_misfit(
+    skeleton: &rigfit_core::Skeleton,
+    pose: &rigfit_core::Pose,
+    case: &rigfit_core::pose::sketch::Case,
+    chains: &[Vec<usize>],
+    joints: &[usize],
+    height: f64,
+) -> f64 {
     let positions = skeleton.joint_positions(pose);
-    let segments: Vec<(rigfit_core::Point3, rigfit_core::Point3)> = case
-        .stroke_chains
+    let segments: Vec<(rigfit_core::Point3, rigfit_core::Point3)> = chains
         .iter()
         .flat_map(|chain| chain.windows(2).map(|w| (positions[w[0]], positions[w[1]])))
         .collect();
@@ -202,8 +263,7 @@ pub fn stroke_misfit(
         })
         .sum::<f64>()
         / points.len() as f64;
-    let joint_side = case
-        .drawn_joints
+    let joint_side = joints
         .iter()
         .map(|&j| {
             points
@@ -212,7 +272,7 @@ pub fn stroke_misfit(
                 .fold(f64::INFINITY, f64::min)
         })
         .sum::<f64>()
-        / case.drawn_joints.len().max(1) as f64;
+        / joints.len().max(1) as f64;
     (stroke_side + joint_side) / height.max(1e-300)
 }
 
@@ -345,6 +405,7 @@ pub fn solve_case(
         failure: None,
         misfit: f64::INFINITY,
         truth_misfit: stroke_misfit(skeleton, &generated.truth, &generated.case, rig.height),
+        own_misfit: f64::INFINITY,
         twinned: generated.twinned(),
         strict_success: false,
     };
@@ -352,6 +413,13 @@ pub fn solve_case(
         Ok(result) => {
             let errors = generated.errors(rig, &result.pose);
             outcome.misfit = stroke_misfit(skeleton, &result.pose, &generated.case, rig.height);
+            outcome.own_misfit = own_chains_misfit(
+                skeleton,
+                &result.pose,
+                &generated.case,
+                &result.stroke_bones,
+                rig.height,
+            );
             outcome.mean_error = errors.mean;
             outcome.max_error = errors.max;
             let strict = generated.strict_errors(rig, &result.pose);
