@@ -112,7 +112,8 @@ impl PySurfaceFit {
 /// ``fast_motion`` (``--fast-motion``: for limbs that move a
 /// tenth of the object or more between frames, at about twice the time on such frames) and
 /// ``piece_tree`` (``False`` is ``--no-piece-tree``: a many-part object's patches start
-/// from their own motion continued, not from the pieces' kinematic tree).
+/// from their own motion continued, not from the pieces' kinematic tree, and its pieces
+/// are handed out as the surface fit left them, not laid rigidly).
 #[pyclass(module = "rigfit", name = "SurfaceTracker")]
 #[derive(Debug)]
 pub struct PySurfaceTracker {

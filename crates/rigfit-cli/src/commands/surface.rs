@@ -62,7 +62,9 @@ pub struct SurfaceArgs {
     pub fast_motion: bool,
     /// Do not start each frame of a many-part reference from its pieces' kinematic tree
     /// (tracked by the articulated tracker; on by default for a reference of pieces that
-    /// touch): each patch starts from its own motion continued, as for one skin.
+    /// touch): each patch starts from its own motion continued, as for one skin, and the
+    /// pieces are handed out as the surface fit left them (with the tree, each is laid
+    /// rigidly where the fit put it).
     #[arg(long)]
     pub no_piece_tree: bool,
     /// Draw a contact sheet of evenly spaced frames (the moved reference shaded flat over the

@@ -162,6 +162,7 @@ impl SurfaceTracker {
             carry_unseen(&self.model, held_from, &mut self.pose, &support);
             positions = self.model.positions(&self.pose);
         }
+        self.lay_pieces_rigidly(&mut positions);
         if positions.iter().any(|p| p.iter().any(|x| !x.is_finite())) {
             // Never hand out a broken mesh: the next frame starts again from this one's start.
             self.pose = last;

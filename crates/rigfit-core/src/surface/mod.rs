@@ -23,6 +23,7 @@ mod frame;
 pub mod model;
 pub mod patches;
 pub mod piece_tree;
+mod rigid_pieces;
 pub mod solve;
 #[cfg(any(test, feature = "test-meshes"))]
 pub mod test_meshes;
@@ -215,6 +216,11 @@ pub struct PieceTreeOptions {
     /// the tuning half is unchanged at the issue's pace; the held-out manipulator's mean
     /// falls from 2.39% to 1.73% of the diagonal (BENCHMARKS.md, issue 22, session 32).
     pub refit_below: Option<f64>,
+    /// Hand out the fitted mesh with each piece laid rigidly where the fit put it (its
+    /// robust least-squares rigid motion, [`rigid_pieces`]); the patches still bend against
+    /// each other inside the fit. On the tuning half of the many-part corpus it lowers every
+    /// object's mean error (BENCHMARKS.md, issue 22, session 39).
+    pub rigid_pieces: bool,
 }
 
 impl Default for PieceTreeOptions {
@@ -235,6 +241,7 @@ impl Default for PieceTreeOptions {
             choice_sigma: 0.02,
             find_returning_parts: true,
             refit_below: Some(0.8),
+            rigid_pieces: true,
         }
     }
 }
@@ -466,9 +473,27 @@ impl SurfaceTracker {
         })
     }
 
-    /// The deformed reference for the current parameters.
+    /// The deformed reference for the current parameters (on an object of rigid pieces
+    /// tracked with its pieces' tree, each piece laid rigidly: what the last frame's fit
+    /// handed out).
     pub fn positions(&self) -> Vec<Point3> {
-        self.model.positions(&self.pose)
+        let mut positions = self.model.positions(&self.pose);
+        self.lay_pieces_rigidly(&mut positions);
+        positions
+    }
+
+    /// Lays each piece of `positions` rigidly where it lies
+    /// ([`PieceTreeOptions::rigid_pieces`]), on an object tracked with its pieces' tree.
+    fn lay_pieces_rigidly(&self, positions: &mut [Point3]) {
+        if self.piece_tree.is_some()
+            && self
+                .options
+                .piece_tree
+                .as_ref()
+                .is_some_and(|tree| tree.rigid_pieces)
+        {
+            rigid_pieces::lay_pieces_rigidly(&self.model, positions);
+        }
     }
 
     /// Fits the next frame, starting from the current parameters (the previous frame's).

@@ -454,7 +454,7 @@ impl TreeBuilder {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::geometry::TriMesh;
     use crate::surface::test_meshes::{mean_distance, scan};
@@ -495,7 +495,7 @@ mod tests {
 
     /// A body (a block 1 x 0.4 x 0.4) and an arm (0.6 x 0.15 x 0.15) touching the body's
     /// right face at (0.5, 0, 0): two pieces, the arm's vertices after the body's.
-    pub(super) fn body_and_arm() -> (TriMesh, usize) {
+    pub(in crate::surface) fn body_and_arm() -> (TriMesh, usize) {
         let mut mesh = block(
             Vector3::new(-0.5, -0.2, -0.2),
             Vector3::new(0.5, 0.2, 0.2),
