@@ -302,6 +302,16 @@ impl PatchModel {
         self.members.len()
     }
 
+    /// How many pieces (connected components) the reference has: one past the largest
+    /// `component` (0 with no patch).
+    pub fn piece_count(&self) -> usize {
+        self.component
+            .iter()
+            .map(|&c| c as usize + 1)
+            .max()
+            .unwrap_or(0)
+    }
+
     pub fn vertex_count(&self) -> usize {
         self.rest.len()
     }

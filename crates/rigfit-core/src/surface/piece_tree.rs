@@ -113,7 +113,7 @@ impl PieceTree {
     /// between them, a piece across most of it (a skin, more than 3/4 of the diagonal), or
     /// the articulated model cannot be built.
     pub fn new(model: &PatchModel, options: &PieceTreeOptions) -> Option<Self> {
-        let pieces = model.component.iter().map(|&c| c as usize + 1).max()?;
+        let pieces = model.piece_count();
         if pieces < 2 || model.contacts.is_empty() {
             return None;
         }

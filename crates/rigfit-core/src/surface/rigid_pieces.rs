@@ -24,12 +24,7 @@ const REWEIGHTED_FITS: usize = 4;
 /// piece's robust rigid motion of its reference place. The same bits on one thread or
 /// several (each piece is fitted on its own).
 pub(super) fn lay_pieces_rigidly(model: &PatchModel, positions: &mut [Point3]) {
-    let pieces = model
-        .component
-        .iter()
-        .map(|&c| c as usize + 1)
-        .max()
-        .unwrap_or(0);
+    let pieces = model.piece_count();
     if pieces == 0 || positions.len() != model.rest.len() {
         return;
     }

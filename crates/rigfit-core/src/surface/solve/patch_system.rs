@@ -128,12 +128,7 @@ impl PatchSystem {
             pair_start.push(pairs.len() as u32);
         }
         // Each piece's extent, from its patches' vertices.
-        let pieces = model
-            .component
-            .iter()
-            .map(|&c| c as usize + 1)
-            .max()
-            .unwrap_or(0);
+        let pieces = model.piece_count();
         let mut piece_patches: Vec<Vec<usize>> = vec![Vec::new(); pieces];
         for (k, &piece) in model.component.iter().enumerate() {
             piece_patches[piece as usize].push(k);

@@ -267,7 +267,7 @@ fn moment_assembly_matches_vertex_by_vertex_sums() {
 
 fn check_moment_assembly(reference: &TriMesh) {
     let model = PatchModel::new(reference, &PatchOptions::default()).expect("model");
-    let pieces = model.component.iter().max().map_or(0, |&c| c + 1);
+    let pieces = model.piece_count();
     assert_eq!(model.contacts.is_empty(), pieces == 1, "{pieces} pieces");
     let system = PatchSystem::new(&model).expect("system");
     let mut rng = rand::rngs::StdRng::seed_from_u64(5);
