@@ -162,14 +162,14 @@ impl SurfaceTracker {
             carry_unseen(&self.model, held_from, &mut self.pose, &support);
             positions = self.model.positions(&self.pose);
         }
-        self.lay_pieces_rigidly(&mut positions);
+        let laid = self.lay_pieces_rigidly(&mut positions);
         if positions.iter().any(|p| p.iter().any(|x| !x.is_finite())) {
             // Never hand out a broken mesh: the next frame starts again from this one's start.
             self.pose = last;
             return Err(SurfaceError::Diverged);
         }
         if let Some(tree) = self.piece_tree.as_mut() {
-            tree.sync(&self.model, &self.pose, &support);
+            tree.sync(&self.model, &self.pose, &support, laid.as_deref());
         }
         self.previous = Some(last);
         self.support = support;

@@ -161,7 +161,8 @@ pub struct SurfaceOptions {
 /// Chosen on the tuning half of the many-part corpus (BENCHMARKS.md, issue 22, session 19).
 #[derive(Clone, Debug)]
 pub struct PieceTreeOptions {
-    /// The articulated tracker's options (its lengths are fractions of the object's height).
+    /// The articulated tracker's options (its lengths are fractions of the object's largest
+    /// side, which the tree's model takes as its height).
     pub track: crate::track::TrackOptions,
     /// Points sampled on the pieces' surface for the articulated tracker: at least this
     /// many,
@@ -195,7 +196,8 @@ pub struct PieceTreeOptions {
     /// four of the six held-out objects lose on average (one held-out humanoid sequence:
     /// mean 3.5% -> 4.6% of the diagonal; BENCHMARKS.md, issue 22, session 26).
     pub second_prediction: Option<f64>,
-    /// The width (fraction of the height) of the E-step that chooses between the two fits.
+    /// The width (fraction of the object's largest side) of the E-step that chooses between
+    /// the two fits.
     pub choice_sigma: f64,
     /// A piece that lost its data in the last frame is turned about its joint onto new
     /// data that no piece explains around it, when that data looks like the part coming
@@ -217,10 +219,13 @@ pub struct PieceTreeOptions {
     /// falls from 2.39% to 1.73% of the diagonal (BENCHMARKS.md, issue 22, session 32).
     pub refit_below: Option<f64>,
     /// Hand out the fitted mesh with each piece laid rigidly where the fit put it (its
-    /// robust least-squares rigid motion, `surface::rigid_pieces`); the patches still bend
-    /// against each other inside the fit. It lowers every object's mean error on both halves
-    /// of the many-part corpus (tune 0.825% -> 0.777% of the diagonal, held-out 0.833% ->
-    /// 0.807%; BENCHMARKS.md, issue 22, session 39).
+    /// robust least-squares rigid motion, `surface::rigid_pieces`), and start the pieces'
+    /// tree's next frame from those motions; the patches still bend against each other
+    /// inside the fit. Laid out alone, it lowered every object's mean error on both halves
+    /// of the many-part corpus (session 39). With the tree synced to it and the tree's
+    /// widths taken from the object's largest side (session 40): tune 29.3 -> 31.3 of 40
+    /// sequences within the bar, mean 0.777% -> 0.768% of the diagonal; held-out 34.0 ->
+    /// 35.0 of 48, mean 0.807% -> 0.772% (BENCHMARKS.md, issue 22, sessions 39 and 40).
     pub rigid_pieces: bool,
 }
 
@@ -485,16 +490,18 @@ impl SurfaceTracker {
 
     /// Lays each piece of `positions` rigidly where it lies
     /// ([`PieceTreeOptions::rigid_pieces`]), on an object tracked with its pieces' tree.
-    fn lay_pieces_rigidly(&self, positions: &mut [Point3]) {
-        if self.piece_tree.is_some()
+    /// Returns the pieces' motions when it laid them.
+    fn lay_pieces_rigidly(
+        &self,
+        positions: &mut [Point3],
+    ) -> Option<Vec<Option<piece_tree::RigidMotion>>> {
+        (self.piece_tree.is_some()
             && self
                 .options
                 .piece_tree
                 .as_ref()
-                .is_some_and(|tree| tree.rigid_pieces)
-        {
-            rigid_pieces::lay_pieces_rigidly(&self.model, positions);
-        }
+                .is_some_and(|tree| tree.rigid_pieces))
+        .then(|| rigid_pieces::lay_pieces_rigidly(&self.model, positions))
     }
 
     /// Fits the next frame, starting from the current parameters (the previous frame's).

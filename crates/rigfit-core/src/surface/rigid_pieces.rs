@@ -10,6 +10,7 @@
 use rayon::prelude::*;
 
 use super::model::PatchModel;
+use super::piece_tree::RigidMotion;
 use crate::math::{Matrix3, Point3, Vector3, nearest_rotation};
 
 /// Residuals (fraction of the diagonal) beyond which a vertex's weight falls as one over its
@@ -22,11 +23,15 @@ const REWEIGHTED_FITS: usize = 4;
 /// Lays each piece of `model` (connected component of the reference) rigidly onto
 /// `positions`, the fitted places of the reference's vertices: each vertex is moved to its
 /// piece's robust rigid motion of its reference place. The same bits on one thread or
-/// several (each piece is fitted on its own).
-pub(super) fn lay_pieces_rigidly(model: &PatchModel, positions: &mut [Point3]) {
+/// several (each piece is fitted on its own). Returns each piece's motion from the
+/// reference (`None` for a piece left as it was).
+pub(super) fn lay_pieces_rigidly(
+    model: &PatchModel,
+    positions: &mut [Point3],
+) -> Vec<Option<RigidMotion>> {
     let pieces = model.piece_count();
     if pieces == 0 || positions.len() != model.rest.len() {
-        return;
+        return Vec::new();
     }
     // Each piece's vertices (a counting sort by piece).
     let piece_of = |v: usize| model.component[model.vertex_patch[v] as usize] as usize;
@@ -62,6 +67,15 @@ pub(super) fn lay_pieces_rigidly(model: &PatchModel, positions: &mut [Point3]) {
             positions[v] = Point3::from(rotation * model.rest[v].coords + translation);
         }
     }
+    motions
+        .into_iter()
+        .map(|m| {
+            m.map(|(rotation, translation)| RigidMotion {
+                rotation,
+                translation,
+            })
+        })
+        .collect()
 }
 
 /// The rigid motion `x -> rotation * x + translation` taking the reference places `rest` of
