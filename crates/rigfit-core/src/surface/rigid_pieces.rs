@@ -51,7 +51,7 @@ pub(super) fn lay_pieces_rigidly(
     }
     let width = HUBER_WIDTH * model.diagonal;
     let fitted: &[Point3] = positions;
-    let motions: Vec<Option<(Matrix3, Vector3)>> = (0..pieces)
+    let motions: Vec<Option<RigidMotion>> = (0..pieces)
         .into_par_iter()
         .map(|p| {
             let vertices = &members[start[p]..start[p + 1]];
@@ -59,23 +59,16 @@ pub(super) fn lay_pieces_rigidly(
         })
         .collect();
     for (p, motion) in motions.iter().enumerate() {
-        let Some((rotation, translation)) = motion else {
+        let Some(motion) = motion else {
             continue;
         };
         for &v in &members[start[p]..start[p + 1]] {
             let v = v as usize;
-            positions[v] = Point3::from(rotation * model.rest[v].coords + translation);
+            positions[v] =
+                Point3::from(motion.rotation * model.rest[v].coords + motion.translation);
         }
     }
     motions
-        .into_iter()
-        .map(|m| {
-            m.map(|(rotation, translation)| RigidMotion {
-                rotation,
-                translation,
-            })
-        })
-        .collect()
 }
 
 /// The rigid motion `x -> rotation * x + translation` taking the reference places `rest` of
@@ -87,7 +80,7 @@ fn robust_rigid_motion(
     rest: &[Point3],
     fitted: &[Point3],
     width: f64,
-) -> Option<(Matrix3, Vector3)> {
+) -> Option<RigidMotion> {
     if vertices.is_empty() {
         return None;
     }
@@ -121,9 +114,17 @@ fn robust_rigid_motion(
                 width / residual
             };
         }
-        motion = Some((rotation, translation));
+        motion = Some(RigidMotion {
+            rotation,
+            translation,
+        });
     }
-    motion.filter(|(r, t): &(Matrix3, Vector3)| r.iter().chain(t.iter()).all(|x| x.is_finite()))
+    motion.filter(|m| {
+        m.rotation
+            .iter()
+            .chain(m.translation.iter())
+            .all(|x| x.is_finite())
+    })
 }
 
 #[cfg(test)]
