@@ -229,12 +229,18 @@ impl PieceTree {
             .saturating_mul(pieces)
             .min(MAX_MODEL_POINTS)
             .max(options.model_points);
-        let mut articulated =
-            ArticulatedModel::from_rig_drawn(&rig, model_points, options.model_points_seed).ok()?;
-        // The tracker's widths are fractions of its model's height: here the object's
-        // largest side, not its upright one, so that a long object lying down (a quadruped,
-        // an arm stretched along the floor) gets kernels as wide as its motions.
-        articulated.height = Aabb::from_points(&model.rest)?.extent().max();
+        // The model's widths (its parts' least radius and blend, the tracker's kernels) are
+        // fractions of its height: here the object's largest side, not its upright one, so
+        // that a long object lying down (a quadruped, an arm stretched along the floor) gets
+        // kernels as wide as its motions.
+        let scale = Aabb::from_points(&model.rest)?.extent().max();
+        let articulated = ArticulatedModel::from_rig_drawn_at(
+            &rig,
+            model_points,
+            options.model_points_seed,
+            scale,
+        )
+        .ok()?;
         let tracker = Tracker::new(articulated, options.track.clone()).ok()?;
         let identity = RigidMotion {
             rotation: Matrix3::identity(),

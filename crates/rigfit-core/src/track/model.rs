@@ -37,7 +37,19 @@ impl ArticulatedModel {
 
     /// [`ArticulatedModel::from_rig`] with the texture points drawn from `seed`.
     pub fn from_rig_drawn(rig: &Rig, samples: usize, seed: u64) -> Result<Self, TrackError> {
-        let height = rig.height().max(1e-9);
+        Self::from_rig_drawn_at(rig, samples, seed, rig.height())
+    }
+
+    /// [`ArticulatedModel::from_rig_drawn`] at the scale `height` in place of the rig's
+    /// upright height: the parts' least radius, the fused surface's blend and the tracker's
+    /// widths are all fractions of it (an object lying down is measured by its largest side).
+    pub fn from_rig_drawn_at(
+        rig: &Rig,
+        samples: usize,
+        seed: u64,
+        height: f64,
+    ) -> Result<Self, TrackError> {
+        let height = height.max(1e-9);
         let has_mesh = rig
             .meshes
             .iter()
