@@ -93,8 +93,10 @@ pub struct PieceTree {
     /// The reference's surface area.
     surface_area: f64,
     /// Each piece's support at the end of the last frame (its patches' share of the data
-    /// explained, [`super::solve::patch_support`], weighted by area), kept when looking for
-    /// returning parts.
+    /// explained, [`super::solve::patch_support`], weighted by area) over the best-seen
+    /// piece's, kept when looking for returning parts. Relative, because how much of a piece
+    /// in view the scans show depends on the cameras: two about the object show nearly all
+    /// of it (0.88-1.0), one about half (0.6-0.66 on a unit test's body and arm).
     piece_support: Vec<f64>,
     /// Whether each piece has ever been on its data (support at least
     /// [`returning::LOST_SUPPORT`]): a piece never seen has not lost its data.
@@ -378,10 +380,13 @@ impl PieceTree {
                 c.0 += s * model.area[k];
                 c.1 += model.area[k];
             }
-            self.piece_support = seen
+            let support: Vec<f64> = seen
                 .iter()
                 .map(|&(s, a)| if a > 0.0 { s / a } else { 1.0 })
                 .collect();
+            let best = support.iter().copied().fold(0.0, f64::max);
+            let best = if best > 0.0 { best } else { 1.0 };
+            self.piece_support = support.iter().map(|s| s / best).collect();
             self.piece_seen.resize(pieces, false);
             for (seen, &s) in self.piece_seen.iter_mut().zip(&self.piece_support) {
                 *seen |= s >= returning::LOST_SUPPORT;
