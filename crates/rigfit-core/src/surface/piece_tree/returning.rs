@@ -18,10 +18,11 @@ use crate::math::{Matrix3, Point3, Vector3, nearest_rotation, translation_part};
 use crate::surface::model::{PatchModel, PatchPose};
 
 /// A piece whose support (over the best-seen piece's since session 41) fell below this in
-/// the last frame ([`PieceTree::sync`]) lost its data: a hidden part's patches still explain some data nearby (0.16-0.24 on the
-/// cheetah's hidden foot in session 33, up to 0.71 in the frames it comes back, 0.88-1.0 on
-/// its pieces in view). 0.75 before session 33 let a quadruped's toe at 0.74 be turned half
-/// round onto its shin's data (tuning half, twice the pace).
+/// the last frame ([`PieceTree::sync`]) lost its data: a hidden part's patches still
+/// explain some data nearby (0.16-0.24 on the cheetah's hidden foot in session 33, up to
+/// 0.71 in the frames it comes back, 0.88-1.0 on its pieces in view). 0.75 before session
+/// 33 let a quadruped's toe at 0.74 be turned half round onto its shin's data (tuning half,
+/// twice the pace).
 pub(super) const LOST_SUPPORT: f64 = 0.7;
 /// A lost piece (with what it carries) is searched for only when it would hold at least
 /// this share of the frame's points were it all in view: a smaller part's own points are
